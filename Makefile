@@ -1,0 +1,53 @@
+# Thin wrapper over CMake + Ninja. Every target installs the Debian packages it needs first
+# (as root, on Debian 12), so a fresh machine needs nothing but `make`.
+
+BUILD      ?= build
+BUILD_SAN  ?= build-sanitize
+DATA       ?= $(abspath ../shared/data)
+JOBS       ?= $(shell nproc)
+DEBS := cmake ninja-build g++ pkg-config libeigen3-dev libnanoflann-dev libtbb-dev libcli11-dev \
+        nlohmann-json3-dev libyaml-cpp-dev libzstd-dev liblzf-dev libxxhash-dev libpng-dev \
+        liboctomap-dev libgtest-dev libgmock-dev libbenchmark-dev
+
+.PHONY: all deps build demo test test-sanitize bench clean
+
+all: build
+
+deps:
+	@missing=$$(for p in $(DEBS); do dpkg-query -W -f='$${Status}\n' $$p 2>/dev/null | grep -q '^install ok installed' || echo $$p; done); \
+	if [ -n "$$missing" ]; then \
+	  echo "installing Debian packages:" $$missing; \
+	  if [ "$$(id -u)" != 0 ]; then echo "run as root (or install: $$missing)"; exit 1; fi; \
+	  apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $$missing; \
+	fi
+
+$(BUILD)/build.ninja: | deps
+	cmake -S . -B $(BUILD) -G Ninja -DCMAKE_BUILD_TYPE=Release -DHMAP_DATA_DIR=$(DATA)
+
+build: deps $(BUILD)/build.ninja
+	cmake --build $(BUILD) -j $(JOBS)
+
+# The main job on the built-in default data: maps the real OS0 recording (until the simulator lands).
+demo: build
+	@mkdir -p out
+	$(BUILD)/bin/hmap map --kitti $(DATA)/balm_os0 --preset outdoor --cell 0.1 --out out/balm_os0.hmap
+	$(BUILD)/bin/hmap info out/balm_os0.hmap
+	$(BUILD)/bin/hmap export out/balm_os0.hmap --ply out/balm_os0_hvoxels.ply
+
+test: build
+	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
+
+# The same suite under AddressSanitizer and UndefinedBehaviorSanitizer.
+test-sanitize: deps
+	cmake -S . -B $(BUILD_SAN) -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DHMAP_SANITIZE=ON \
+	  -DHMAP_BUILD_BENCH=OFF -DHMAP_DATA_DIR=$(DATA)
+	cmake --build $(BUILD_SAN) -j $(JOBS)
+	cd $(BUILD_SAN) && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 \
+	  UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 ctest --output-on-failure -j $(JOBS)
+
+bench: build
+	$(BUILD)/bin/hmap bench --kitti $(DATA)/kitti_hdl64_seq16 --cell 0.2 --max-range 50
+	$(BUILD)/bin/hmap_bench
+
+clean:
+	rm -rf $(BUILD) $(BUILD_SAN) out

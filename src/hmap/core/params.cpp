@@ -1,0 +1,151 @@
+#include "hmap/core/params.hpp"
+
+#include <cmath>
+#include <sstream>
+
+#include "hmap/core/error.hpp"
+
+namespace hmap {
+
+Params outdoor_preset() { return Params{}; }
+
+Params indoor_preset() {
+  Params p;
+  p.map.cell_size = 0.05;
+  p.map.point_distance_threshold = 0.15;
+  p.map.min_range = 0.8;
+  p.map.max_range = 5.0;
+  p.map.min_hvoxel_height = 0.05;
+  p.ground.elevation_threshold = 0.05;
+  p.ground.expansion_distance = 0.4;
+  p.occupancy.ground_distance = 0.03;
+  return p;
+}
+
+Params preset(std::string_view name) {
+  if (name == "indoor") return indoor_preset();
+  if (name == "outdoor") return outdoor_preset();
+  throw Error("unknown preset '" + std::string(name) + "' (expected indoor or outdoor)");
+}
+
+namespace {
+
+ParamRef ref(std::string name, std::string unit, std::string description, double& field) {
+  return {std::move(name), std::move(unit), std::move(description), [&field] { return field; },
+          [&field](double v) { field = v; }};
+}
+
+template <typename Int>
+ParamRef ref_int(std::string name, std::string unit, std::string description, Int& field) {
+  return {std::move(name), std::move(unit), std::move(description),
+          [&field] { return static_cast<double>(field); },
+          [&field](double v) { field = static_cast<Int>(std::llround(v)); }};
+}
+
+}  // namespace
+
+std::vector<ParamRef> param_refs(Params& p) {
+  std::vector<ParamRef> r;
+  auto& m = p.map;
+  r.push_back(ref("map.cell_size", "m", "edge of a square grid cell", m.cell_size));
+  r.push_back(ref("map.point_distance_threshold", "m", "z gap that splits a height cluster (Alg. 2)",
+                  m.point_distance_threshold));
+  r.push_back(ref("map.min_range", "m", "points closer to the sensor are dropped", m.min_range));
+  r.push_back(ref("map.max_range", "m", "points farther from the sensor are dropped", m.max_range));
+  r.push_back(ref("map.density_gain", "-", "K_m of eq. (1)", m.density_gain));
+  r.push_back(ref("map.density_normalization", "m^3", "K_n of eq. (1)", m.density_normalization));
+  r.push_back(ref("map.density_min_points", "-", "d_min of eq. (1)", m.density_min_points));
+  r.push_back(ref("map.min_hvoxel_height", "m", "floor of the height h in eq. (1)",
+                  m.min_hvoxel_height));
+  r.push_back(ref("map.density_threshold", "-", "n_th: HVoxels below it cast no ray and are removed",
+                  m.density_threshold));
+  r.push_back({"map.free_space", "enum", "0 = ray tracing and extrusion, 1 = none",
+               [&m] { return static_cast<double>(m.free_space); },
+               [&m](double v) { m.free_space = static_cast<FreeSpaceMode>(std::llround(v)); }});
+  auto& g = p.ground;
+  r.push_back(ref_int("ground.iterations", "-", "K, RRT iterations of Alg. 4", g.iterations));
+  r.push_back(ref("ground.normal_threshold", "-", "N_th: 1 - |n1.n2| allowed between patches",
+                  g.normal_threshold));
+  r.push_back(ref("ground.elevation_threshold", "m", "E_th: height step allowed between patches",
+                  g.elevation_threshold));
+  r.push_back(ref("ground.expansion_distance", "m", "d_n, node expansion distance of eq. (2)",
+                  g.expansion_distance));
+  r.push_back(ref_int("ground.seed", "-", "random seed of the patch exploration", g.seed));
+  auto& o = p.occupancy;
+  r.push_back(ref("occupancy.sigma", "m", "sigma of the obstacle term of eq. (4)", o.sigma));
+  r.push_back(ref("occupancy.ground_gain", "-", "K_g of eq. (4)", o.ground_gain));
+  r.push_back(ref("occupancy.ground_distance", "m", "d_pth of eq. (4)", o.ground_distance));
+  r.push_back(ref("occupancy.z_plus", "m", "z+, upper detection limit above the ground", o.z_plus));
+  r.push_back(ref("occupancy.z_minus", "m", "z-, lower detection limit below the ground", o.z_minus));
+  r.push_back(ref("occupancy.clamp_min", "-", "lowest occupancy probability kept", o.clamp_min));
+  r.push_back(ref("occupancy.clamp_max", "-", "highest occupancy probability kept", o.clamp_max));
+  auto& s = p.slam;
+  r.push_back(ref_int("slam.interpolation_window", "cells", "IDW window of eq. (12)",
+                      s.interpolation_window));
+  r.push_back(ref("slam.idw_power", "-", "p of eq. (12)", s.idw_power));
+  r.push_back(ref_int("slam.max_iterations", "-", "Gauss-Newton iterations per scan",
+                      s.max_iterations));
+  return r;
+}
+
+namespace {
+
+void require(bool ok, const char* name, double value, const char* domain) {
+  if (ok) return;
+  std::ostringstream msg;
+  msg << "parameter " << name << " = " << value << " is invalid: must be " << domain;
+  throw Error(msg.str());
+}
+
+}  // namespace
+
+void validate(const Params& p) {
+  // Every scalar must be a finite number first.
+  Params copy = p;
+  for (const auto& r : param_refs(copy)) {
+    require(std::isfinite(r.get()), r.name.c_str(), r.get(), "a finite number");
+  }
+  const auto& m = p.map;
+  require(m.cell_size >= 1e-3 && m.cell_size <= 100.0, "map.cell_size", m.cell_size,
+          "between 0.001 and 100 m");
+  require(m.point_distance_threshold >= 0.0, "map.point_distance_threshold",
+          m.point_distance_threshold, ">= 0");
+  require(m.min_range >= 0.0, "map.min_range", m.min_range, ">= 0");
+  require(m.max_range > m.min_range, "map.max_range", m.max_range, "> map.min_range");
+  // The scan is binned into a dense window of (2·max_range/cell)^2 cells: keep it in memory.
+  const double half_cells = std::ceil(m.max_range / m.cell_size);
+  require(half_cells <= 2048.0, "map.max_range", m.max_range,
+          "at most 2048 cells from the sensor (max_range / cell_size <= 2048)");
+  require(m.density_gain > 0.0, "map.density_gain", m.density_gain, "> 0");
+  require(m.density_normalization > 0.0, "map.density_normalization", m.density_normalization,
+          "> 0");
+  require(m.density_min_points >= 0.0, "map.density_min_points", m.density_min_points, ">= 0");
+  require(m.min_hvoxel_height > 0.0, "map.min_hvoxel_height", m.min_hvoxel_height, "> 0");
+  require(m.density_threshold >= 0.0 && m.density_threshold <= m.density_gain,
+          "map.density_threshold", m.density_threshold, "in [0, K_m]");
+  require(m.free_space == FreeSpaceMode::kRayTracing || m.free_space == FreeSpaceMode::kNone,
+          "map.free_space", static_cast<double>(m.free_space), "0 or 1");
+  const auto& g = p.ground;
+  require(g.iterations >= 0, "ground.iterations", g.iterations, ">= 0");
+  require(g.normal_threshold >= 0.0 && g.normal_threshold <= 1.0, "ground.normal_threshold",
+          g.normal_threshold, "in [0, 1]");
+  require(g.elevation_threshold >= 0.0, "ground.elevation_threshold", g.elevation_threshold, ">= 0");
+  require(g.expansion_distance > 0.0, "ground.expansion_distance", g.expansion_distance, "> 0");
+  const auto& o = p.occupancy;
+  require(o.sigma > 0.0, "occupancy.sigma", o.sigma, "> 0");
+  require(o.ground_gain >= 0.0 && o.ground_gain <= 0.5, "occupancy.ground_gain", o.ground_gain,
+          "in [0, 0.5]");
+  require(o.ground_distance > 0.0, "occupancy.ground_distance", o.ground_distance, "> 0");
+  require(o.z_plus > o.z_minus, "occupancy.z_plus", o.z_plus, "> occupancy.z_minus");
+  require(o.clamp_min > 0.0 && o.clamp_min < 0.5, "occupancy.clamp_min", o.clamp_min,
+          "in (0, 0.5)");
+  require(o.clamp_max > 0.5 && o.clamp_max < 1.0, "occupancy.clamp_max", o.clamp_max,
+          "in (0.5, 1)");
+  const auto& s = p.slam;
+  require(s.interpolation_window >= 1 && s.interpolation_window % 2 == 1,
+          "slam.interpolation_window", s.interpolation_window, "an odd number >= 1");
+  require(s.idw_power > 0.0, "slam.idw_power", s.idw_power, "> 0");
+  require(s.max_iterations >= 1, "slam.max_iterations", s.max_iterations, ">= 1");
+}
+
+}  // namespace hmap

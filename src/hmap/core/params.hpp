@@ -1,0 +1,94 @@
+#pragma once
+// Every parameter of hmap, with its unit and default, and the presets of the paper's section V.
+//
+// Defaults equal the `outdoor` preset. Parameters are reachable by name (for config files and
+// command-line overrides) through `for_each_param`.
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace hmap {
+
+/// How free space is computed when a scan is integrated.
+enum class FreeSpaceMode : std::uint8_t {
+  kRayTracing = 0,  ///< Alg. 3: free HVoxels along the 2D traversal, then extrusion (III-E).
+  kNone = 1,        ///< Occupied HVoxels only: merging without extrusion.
+};
+
+/// The HMAP itself: indexing, clustering, density, free space, merging, extrusion (section III).
+struct MapParams {
+  double cell_size = 0.25;                 ///< [m] edge of a square grid cell
+  double point_distance_threshold = 0.4;   ///< [m] gap on z that splits a height cluster (Alg. 2)
+  double min_range = 1.2;                  ///< [m] points closer to the sensor are dropped
+  double max_range = 25.0;                 ///< [m] points farther from the sensor are dropped
+  double density_gain = 1.0;               ///< K_m, eq. (1) amplitude gain [-]
+  double density_normalization = 0.0005;   ///< K_n, eq. (1) sample normalisation [m^3]
+  double density_min_points = 5.0;         ///< d_min, eq. (1) minimum number of points [-]
+  double min_hvoxel_height = 0.25;         ///< [m] floor of h in V = h·A of eq. (1): one point has h = 0
+  double density_threshold = 0.5;          ///< n_th [-]: ray casting, extrusion removal, SLAM selection;
+                                           ///< 0.5 means |v| >= d_min, whatever the volume
+  FreeSpaceMode free_space = FreeSpaceMode::kRayTracing;
+};
+
+/// Ground extraction by RRT patch exploration (section IV-A, Alg. 4).
+struct GroundParams {
+  int iterations = 400;                    ///< K [-]
+  double normal_threshold = 0.2;           ///< N_th [-]: patches connect when 1 − |n1·n2| <= N_th
+  double elevation_threshold = 0.2;        ///< E_th [m]
+  double expansion_distance = 0.9;         ///< d_n [m]
+  std::uint64_t seed = 1;                  ///< RNG seed: same seed, same patches
+};
+
+/// 2D occupancy kept alongside the HMAP (section IV-B, eq. 3-4).
+struct OccupancyParams {
+  double sigma = 0.02;                     ///< σ of the obstacle term of eq. (4) [m]
+  double ground_gain = 0.3;                ///< K_g in [0, 0.5] [-]
+  double ground_distance = 0.1;            ///< d_pth [m]
+  double z_plus = 2.0;                     ///< z+ [m] above the local ground: higher HVoxels ignored
+  double z_minus = -0.5;                   ///< z− [m] below the local ground: lower HVoxels ignored
+  double clamp_min = 0.12;                 ///< [-] probability floor (OctoMap's default clamping)
+  double clamp_max = 0.97;                 ///< [-] probability ceiling
+};
+
+/// SLAM by Gauss-Newton matching on the HMAP (section IV-C, eq. 5-12).
+struct SlamParams {
+  int interpolation_window = 3;            ///< [cells] IDW window of eq. (12)
+  double idw_power = 2.0;                  ///< p of eq. (12) [-]
+  int max_iterations = 30;                 ///< Gauss-Newton iterations per scan [-]
+};
+
+/// All parameters together.
+struct Params {
+  MapParams map;
+  GroundParams ground;
+  OccupancyParams occupancy;
+  SlamParams slam;
+};
+
+/// Paper section V, indoor (Kinect One, office): 5 cm cells, 0.8-5 m range.
+[[nodiscard]] Params indoor_preset();
+/// Paper section V, outdoor (VLP-16, campus): 25 cm cells, 1.2-25 m range. Equal to `Params{}`.
+[[nodiscard]] Params outdoor_preset();
+/// The preset called `name` ("indoor" or "outdoor"); throws hmap::Error for any other name.
+[[nodiscard]] Params preset(std::string_view name);
+
+/// One named parameter: a scalar field of Params, seen as a double.
+struct ParamRef {
+  std::string name;         ///< "map.cell_size"
+  std::string unit;         ///< "m", "-", "cells", ...
+  std::string description;  ///< one line
+  std::function<double()> get;
+  std::function<void(double)> set;  ///< rounds for integer fields
+};
+
+/// Every scalar parameter of `params` by its dotted name (enums as their integer value).
+[[nodiscard]] std::vector<ParamRef> param_refs(Params& params);
+
+/// Throws hmap::Error naming the first parameter that is out of its domain (negative cell size,
+/// min_range >= max_range, a scan window too large for memory, ...).
+void validate(const Params& params);
+
+}  // namespace hmap

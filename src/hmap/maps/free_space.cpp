@@ -1,0 +1,107 @@
+#include "hmap/maps/free_space.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "hmap/maps/ray_trace.hpp"
+
+namespace hmap {
+
+void FreeCell::add(float lo, float hi, float rays, float join_gap) {
+  // Unite with every overlapping interval (they stay disjoint, so at most a run of them).
+  std::uint32_t hit = n;
+  for (std::uint32_t k = 0; k < n; ++k) {
+    FreeHVoxel& iv = intervals[k];
+    if (lo <= iv.z_max && hi >= iv.z_min) {
+      if (hit == n) {
+        iv.z_min = std::min(iv.z_min, lo);
+        iv.z_max = std::max(iv.z_max, hi);
+        iv.rays += rays;
+        hit = k;
+      } else {  // a second overlapped interval: fold it into the first one
+        FreeHVoxel& into = intervals[hit];
+        into.z_min = std::min(into.z_min, iv.z_min);
+        into.z_max = std::max(into.z_max, iv.z_max);
+        into.rays += iv.rays;
+        intervals[k] = intervals[--n];
+        --k;
+      }
+    }
+  }
+  // The intervals were disjoint, so the union cannot reach one that [lo, hi] did not overlap.
+  if (hit != n) return;
+  if (n < kMaxIntervals) {
+    intervals[n++] = {lo, hi, rays};
+    return;
+  }
+  std::uint32_t nearest = 0;
+  float best = std::numeric_limits<float>::infinity();
+  for (std::uint32_t k = 0; k < n; ++k) {
+    const float gap = std::max(intervals[k].z_min - hi, lo - intervals[k].z_max);
+    if (gap < best) {
+      best = gap;
+      nearest = k;
+    }
+  }
+  if (best <= join_gap) {
+    FreeHVoxel& iv = intervals[nearest];
+    iv.z_min = std::min(iv.z_min, lo);
+    iv.z_max = std::max(iv.z_max, hi);
+    iv.rays += rays;
+  }
+}
+
+FreeSpaceTracer::FreeSpaceTracer(const MapParams& params) : params_(params) {
+  const auto half = static_cast<std::int32_t>(std::ceil(params_.max_range / params_.cell_size)) + 1;
+  slot_of_window_.assign(static_cast<std::size_t>(2 * half + 1) * (2 * half + 1), 0);
+}
+
+void FreeSpaceTracer::trace(const ScanHVoxels& scan) {
+  for (std::size_t w : used_windows_) slot_of_window_[w] = 0;
+  used_windows_.clear();
+  cells_.clear();
+  rays_ = 0;
+
+  const double cell = params_.cell_size;
+  const auto n_th = static_cast<float>(params_.density_threshold);
+  const auto join_gap = static_cast<float>(params_.point_distance_threshold);
+  const double xs = scan.origin_map.x();
+  const double ys = scan.origin_map.y();
+  const auto zs = static_cast<float>(scan.origin_map.z());
+
+  for (const ScanCell& target : scan.cells) {
+    ray_dz_.clear();
+    for (const HVoxel& v : scan.hvoxels_of(target)) {
+      if (v.density >= n_th) ray_dz_.emplace_back(v.z_min - zs, v.z_max - zs);  // line models
+    }
+    if (ray_dz_.empty()) continue;
+    rays_ += ray_dz_.size();
+    const double xt = (target.key.i + 0.5) * cell;
+    const double yt = (target.key.j + 0.5) * cell;
+    const double length_cells = std::hypot(xt - xs, yt - ys) / cell;
+    traverse_2d(xs, ys, xt, yt, cell, [&](const CellKey& key, double t_in, double t_out) {
+      if (key == target.key) return false;  // the HVoxel's own cell is not free
+      if ((t_out - t_in) * length_cells < 1e-6) return true;  // touched at a corner only
+      const std::size_t w = scan.window.index(key);
+      std::uint32_t& slot = slot_of_window_[w];
+      if (slot == 0) {
+        cells_.push_back({key, 0, {}});
+        slot = static_cast<std::uint32_t>(cells_.size());
+        used_windows_.push_back(w);
+      }
+      FreeCell& free_cell = cells_[slot - 1];
+      const auto a = static_cast<float>(t_in);
+      const auto b = static_cast<float>(t_out);
+      for (const Eigen::Vector2f& dz : ray_dz_) {
+        // Lines are linear in t: their extremes over [t_in, t_out] are at the ends.
+        const float lo = zs + std::min(a * dz.x(), b * dz.x());
+        const float hi = zs + std::max(a * dz.y(), b * dz.y());
+        free_cell.add(lo, hi, 1.0F, join_gap);
+      }
+      return true;
+    });
+  }
+}
+
+}  // namespace hmap

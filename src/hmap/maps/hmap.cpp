@@ -1,0 +1,105 @@
+#include "hmap/maps/hmap.hpp"
+
+#include <cmath>
+
+#include "hmap/core/error.hpp"
+
+namespace hmap {
+
+HMap::HMap(const Params& params) : params_(params) { validate(params_); }
+
+std::optional<CellKey> HMap::key_of(double x, double y) const {
+  const double fi = std::floor(x / cell_size());
+  const double fj = std::floor(y / cell_size());
+  // Also false for NaN: comparisons with NaN fail.
+  if (!(std::abs(fi) < kMaxKey && std::abs(fj) < kMaxKey)) return std::nullopt;
+  return CellKey{static_cast<std::int32_t>(fi), static_cast<std::int32_t>(fj)};
+}
+
+Eigen::Vector2d HMap::cell_center(const CellKey& key) const {
+  return {(key.i + 0.5) * cell_size(), (key.j + 0.5) * cell_size()};
+}
+
+const Column* HMap::column(const CellKey& key) const {
+  const auto it = tiles_.find(tile_of(key));
+  if (it == tiles_.end()) return nullptr;
+  return &it->second->cells[local_index(key)];
+}
+
+const Column* HMap::column(double x, double y) const {
+  const auto key = key_of(x, y);
+  return key ? column(*key) : nullptr;
+}
+
+Column* HMap::find_column(const CellKey& key) {
+  const auto it = tiles_.find(tile_of(key));
+  if (it == tiles_.end()) return nullptr;
+  return &it->second->cells[local_index(key)];
+}
+
+Column& HMap::column_for_update(const CellKey& key) {
+  auto& tile = tiles_[tile_of(key)];
+  if (!tile) tile = std::make_unique<Tile>();
+  return tile->cells[local_index(key)];
+}
+
+const HVoxel* HMap::hvoxel_at(double x, double y, double z) const {
+  const Column* c = column(x, y);
+  return c ? c->find(static_cast<float>(z)) : nullptr;
+}
+
+bool HMap::empty() const {
+  for (const auto& [key, tile] : tiles_) {
+    for (const Column& c : tile->cells)
+      if (!c.empty()) return false;
+  }
+  return true;
+}
+
+void HMap::prune_empty_tiles() {
+  std::erase_if(tiles_, [](const auto& entry) {
+    for (const Column& c : entry.second->cells)
+      if (!c.empty()) return false;
+    return true;
+  });
+}
+
+MapStats HMap::stats() const {
+  MapStats s;
+  s.tiles = tiles_.size();
+  // Tile index: one bucket pointer per bucket, one node (key, pointer, next, hash) per tile.
+  s.memory_bytes = tiles_.bucket_count() * sizeof(void*) +
+                   tiles_.size() * (sizeof(Tile) + sizeof(CellKey) + 3 * sizeof(void*));
+  for_each_column([&](const CellKey& key, const Column& c) {
+    ++s.cells;
+    s.hvoxels += c.size();
+    s.memory_bytes += c.heap_bytes();
+    const double x0 = key.i * cell_size();
+    const double y0 = key.j * cell_size();
+    s.bounds.extend(Eigen::Vector3d(x0, y0, c[0].z_min));
+    s.bounds.extend(Eigen::Vector3d(x0 + cell_size(), y0 + cell_size(), c[c.size() - 1].z_max));
+  });
+  return s;
+}
+
+PointCloud recover_points(const HMap& map, double z_step) {
+  if (!(z_step > 0.0)) throw Error("recover_points: z_step must be > 0");
+  PointCloud points;
+  map.for_each_column([&](const CellKey& key, const Column& c) {
+    const Eigen::Vector2d xy = map.cell_center(key);
+    for (const HVoxel& v : c) {
+      const double h = v.height();
+      const auto steps = static_cast<long>(std::floor(h / z_step));
+      for (long k = 0; k <= steps; ++k) {
+        points.emplace_back(static_cast<float>(xy.x()), static_cast<float>(xy.y()),
+                            static_cast<float>(v.z_min + static_cast<double>(k) * z_step));
+      }
+      if (static_cast<double>(steps) * z_step < h) {
+        points.emplace_back(static_cast<float>(xy.x()), static_cast<float>(xy.y()), v.z_max);
+      }
+    }
+  });
+  return points;
+}
+
+}  // namespace hmap

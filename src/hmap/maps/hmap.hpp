@@ -1,0 +1,105 @@
+#pragma once
+// The HMAP: an unbounded sparse 2D grid of columns of HVoxels (section III).
+//
+// Cells live in square tiles of kTileSize × kTileSize allocated on first touch and found by a
+// hash of the tile key, so the map grows with the area seen and needs no bounding box.
+
+#include <array>
+#include <memory>
+#include <optional>
+#include <unordered_map>
+
+#include "hmap/core/params.hpp"
+#include "hmap/core/types.hpp"
+#include "hmap/maps/column.hpp"
+
+namespace hmap {
+
+/// Size figures of a map.
+struct MapStats {
+  std::size_t cells = 0;         ///< columns holding at least one HVoxel
+  std::size_t hvoxels = 0;
+  std::size_t tiles = 0;
+  std::size_t memory_bytes = 0;  ///< tiles, heap HVoxels and the tile index
+  Eigen::AlignedBox3d bounds;    ///< of the HVoxels (cell extents in x, y); empty when no HVoxel
+};
+
+class HMap {
+ public:
+  static constexpr int kTileBits = 4;
+  static constexpr int kTileSize = 1 << kTileBits;  ///< cells per tile edge
+  static constexpr int kTileCells = kTileSize * kTileSize;
+  /// Cell keys are kept within ±2^30 so neighbours and tile keys never overflow.
+  static constexpr double kMaxKey = 1073741824.0;
+
+  struct Tile {
+    std::array<Column, kTileCells> cells;
+  };
+
+  /// Validates the parameters (throws hmap::Error).
+  explicit HMap(const Params& params);
+
+  [[nodiscard]] const Params& params() const { return params_; }
+  [[nodiscard]] double cell_size() const { return params_.map.cell_size; }
+
+  /// The cell holding (x, y), or nullopt when (x, y) is not finite or beyond ±2^30 cells.
+  [[nodiscard]] std::optional<CellKey> key_of(double x, double y) const;
+  /// Centre of a cell in map coordinates [m].
+  [[nodiscard]] Eigen::Vector2d cell_center(const CellKey& key) const;
+
+  /// The column of a cell, or nullptr if nothing was ever stored there. O(1).
+  [[nodiscard]] const Column* column(const CellKey& key) const;
+  [[nodiscard]] const Column* column(double x, double y) const;
+  /// The column of a cell for changing it, or nullptr if its tile was never allocated.
+  [[nodiscard]] Column* find_column(const CellKey& key);
+  /// The column of a cell, its tile allocated on first touch.
+  [[nodiscard]] Column& column_for_update(const CellKey& key);
+  /// The HVoxel containing (x, y, z), or nullptr. O(1) + O(log n).
+  [[nodiscard]] const HVoxel* hvoxel_at(double x, double y, double z) const;
+  [[nodiscard]] bool occupied(double x, double y, double z) const {
+    return hvoxel_at(x, y, z) != nullptr;
+  }
+
+  [[nodiscard]] MapStats stats() const;
+  [[nodiscard]] bool empty() const;
+  void clear() { tiles_.clear(); }
+
+  /// Calls f(CellKey, const Column&) for every non-empty column, in no particular order.
+  template <typename F>
+  void for_each_column(F&& f) const {
+    for (const auto& [tile_key, tile] : tiles_) {
+      for (int local = 0; local < kTileCells; ++local) {
+        const Column& c = tile->cells[local];
+        if (!c.empty()) f(key_in_tile(tile_key, local), c);
+      }
+    }
+  }
+  /// Calls f(tile_key, const Tile&) for every allocated tile; tile (a, b) holds cells
+  /// [a·kTileSize, (a+1)·kTileSize) × [b·kTileSize, (b+1)·kTileSize).
+  template <typename F>
+  void for_each_tile(F&& f) const {
+    for (const auto& [tile_key, tile] : tiles_) f(tile_key, *tile);
+  }
+  /// Removes tiles whose columns are all empty.
+  void prune_empty_tiles();
+
+  [[nodiscard]] static CellKey tile_of(const CellKey& key) {
+    return {key.i >> kTileBits, key.j >> kTileBits};  // arithmetic shift: floor division
+  }
+  [[nodiscard]] static int local_index(const CellKey& key) {
+    return ((key.i & (kTileSize - 1)) << kTileBits) | (key.j & (kTileSize - 1));
+  }
+  [[nodiscard]] static CellKey key_in_tile(const CellKey& tile, int local) {
+    return {tile.i * kTileSize + (local >> kTileBits), tile.j * kTileSize + (local & (kTileSize - 1))};
+  }
+
+ private:
+  Params params_;
+  std::unordered_map<CellKey, std::unique_ptr<Tile>, CellKeyHash> tiles_;
+};
+
+/// The occupied space as points: each HVoxel sampled at its cell centre from z_min to z_max
+/// every `z_step` metres (both ends included): the paper's height-upsampled point cloud.
+[[nodiscard]] PointCloud recover_points(const HMap& map, double z_step);
+
+}  // namespace hmap

@@ -1,0 +1,85 @@
+#include "hmap/maps/mapper.hpp"
+
+#include <algorithm>
+
+namespace hmap {
+
+Mapper::Mapper(const Params& params) : Mapper(HMap(params)) {}
+
+Mapper::Mapper(HMap map)
+    : map_(std::move(map)),
+      hvoxelizer_(map_.params().map),
+      tracer_(map_.params().map) {}
+
+ScanStats Mapper::integrate(std::span<const Point3f> points_sensor, const Pose& T_map_sensor) {
+  // Alg. 1 and Alg. 2: the HVoxel representation R of the scan, in the map frame.
+  hvoxelizer_.build(points_sensor, T_map_sensor, scan_);
+  ScanStats stats;
+  stats.points_in = scan_.points_in;
+  stats.points_kept = scan_.points_kept;
+  stats.dropped_non_finite = scan_.dropped_non_finite;
+  stats.dropped_range = scan_.dropped_range;
+  stats.scan_cells = scan_.cells.size();
+  stats.scan_hvoxels = scan_.hvoxels.size();
+
+  const bool carve = map_.params().map.free_space == FreeSpaceMode::kRayTracing;
+  // Alg. 3: free-space HVoxels by HVoxel ray tracing.
+  if (carve) tracer_.trace(scan_);
+  // III-D: merge R into the map.
+  merge_scan();
+  // III-E: extrusion of the merged map by the free-space HVoxels.
+  if (carve) {
+    stats.rays = tracer_.rays();
+    stats.free_cells = tracer_.cells().size();
+    extrude_free_space(stats);
+  }
+  return stats;
+}
+
+void Mapper::merge_scan() {
+  const MapParams& p = map_.params().map;
+  const auto gap = static_cast<float>(p.point_distance_threshold);
+  for (const ScanCell& cell : scan_.cells) {
+    Column& column = map_.column_for_update(cell.key);
+    for (const HVoxel& v : scan_.hvoxels_of(cell)) column.merge(v, gap, p);
+  }
+}
+
+namespace {
+
+/// Appends to `out` the parts of `f` outside every interval of `occupied` (sorted, disjoint).
+void subtract(const FreeHVoxel& f, std::span<const HVoxel> occupied, std::vector<FreeHVoxel>& out) {
+  float lo = f.z_min;
+  for (const HVoxel& v : occupied) {
+    if (v.z_max < lo) continue;
+    if (v.z_min > f.z_max) break;
+    if (v.z_min > lo) out.push_back({lo, v.z_min, f.rays});
+    lo = std::max(lo, v.z_max);
+    if (lo >= f.z_max) return;
+  }
+  if (lo < f.z_max) out.push_back({lo, f.z_max, f.rays});
+}
+
+}  // namespace
+
+void Mapper::extrude_free_space(ScanStats& stats) {
+  const MapParams& p = map_.params().map;
+  const auto& scan_cell_of_window = hvoxelizer_.cell_of_window();
+  for (const FreeCell& free_cell : tracer_.cells()) {
+    Column* column = map_.find_column(free_cell.key);
+    if (column == nullptr || column->empty()) continue;
+    // Within one scan a hit outranks a pass-through, as in OctoMap: the scan's own HVoxels in
+    // this cell are not carved by its own rays.
+    const std::uint32_t own = scan_cell_of_window[scan_.window.index(free_cell.key)];
+    std::span<const FreeHVoxel> free = free_cell.hvoxels();
+    if (own != 0) {
+      pieces_.clear();
+      const auto own_hvoxels = scan_.hvoxels_of(scan_.cells[own - 1]);
+      for (const FreeHVoxel& f : free) subtract(f, own_hvoxels, pieces_);
+      free = pieces_;
+    }
+    extrude(*column, free, p, stats.extrusion);
+  }
+}
+
+}  // namespace hmap

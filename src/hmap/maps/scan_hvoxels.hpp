@@ -1,0 +1,83 @@
+#pragma once
+// The HVoxel representation R of one scan: Alg. 1 (2D data indexing) and Alg. 2 (height
+// clustering and HVoxel generation), in the map frame.
+
+#include <span>
+#include <vector>
+
+#include "hmap/core/params.hpp"
+#include "hmap/core/types.hpp"
+#include "hmap/maps/hvoxel.hpp"
+
+namespace hmap {
+
+/// The square of cells around the sensor that a scan can reach: max_range / cell cells each side.
+/// Scan-local arrays are dense over it, so binning and ray bookkeeping need no hashing.
+struct ScanWindow {
+  CellKey center;
+  std::int32_t half = 0;   ///< cells from the centre to the edge
+  std::int32_t width = 1;  ///< 2·half + 1
+
+  [[nodiscard]] std::size_t cells() const { return static_cast<std::size_t>(width) * width; }
+  [[nodiscard]] bool contains(const CellKey& k) const {
+    return std::abs(static_cast<long>(k.i) - center.i) <= half &&
+           std::abs(static_cast<long>(k.j) - center.j) <= half;
+  }
+  /// Dense index of a cell the window contains.
+  [[nodiscard]] std::size_t index(const CellKey& k) const {
+    return static_cast<std::size_t>(k.i - center.i + half) * width +
+           static_cast<std::size_t>(k.j - center.j + half);
+  }
+};
+
+/// One cell of R: its HVoxels are hvoxels[first, first + count), sorted by height.
+struct ScanCell {
+  CellKey key;
+  std::uint32_t first = 0;
+  std::uint32_t count = 0;
+};
+
+/// R: the HVoxels of one scan in the map frame, with what happened to its points.
+struct ScanHVoxels {
+  Eigen::Vector3d origin_map = Eigen::Vector3d::Zero();  ///< sensor origin [m]
+  ScanWindow window;
+  std::vector<ScanCell> cells;
+  std::vector<HVoxel> hvoxels;
+  std::size_t points_in = 0;
+  std::size_t points_kept = 0;
+  std::size_t dropped_non_finite = 0;  ///< NaN or infinite coordinates
+  std::size_t dropped_range = 0;       ///< closer than min_range or farther than max_range
+
+  [[nodiscard]] std::span<const HVoxel> hvoxels_of(const ScanCell& c) const {
+    return {hvoxels.data() + c.first, c.count};
+  }
+};
+
+/// Builds R scan after scan, reusing its buffers: nothing is allocated per point once warm.
+class ScanHVoxelizer {
+ public:
+  explicit ScanHVoxelizer(const MapParams& params);
+
+  /// Alg. 1 + Alg. 2: transforms points_sensor by T_map_sensor, bins them by cell, clusters each
+  /// cell's heights with the point-distance threshold and makes one HVoxel per cluster (eq. 1).
+  void build(std::span<const Point3f> points_sensor, const Pose& T_map_sensor, ScanHVoxels& out);
+
+  /// Scan cell index + 1 of each window cell of the last build (0: no point there).
+  [[nodiscard]] const std::vector<std::uint32_t>& cell_of_window() const { return cell_of_window_; }
+
+ private:
+  void index_points(std::span<const Point3f> points_sensor, const Pose& T_map_sensor,
+                    ScanHVoxels& out);                 // Alg. 1
+  void cluster_heights(ScanHVoxels& out);              // Alg. 2
+
+  MapParams params_;
+  ScanWindow window_;
+  std::vector<std::uint32_t> cell_of_window_;  // dense over the window
+  std::vector<std::size_t> used_windows_;      // window cells set in the last build, to reset
+  std::vector<std::uint32_t> point_cell_;      // per kept point: its scan cell
+  std::vector<float> point_z_;                 // per kept point: map z
+  std::vector<std::uint32_t> cell_offset_;     // counting sort of heights by cell
+  std::vector<float> sorted_z_;
+};
+
+}  // namespace hmap

@@ -1,0 +1,107 @@
+#include "hmap/maps/column.hpp"
+
+#include <gtest/gtest.h>
+
+#include <random>
+#include <vector>
+
+namespace hmap {
+namespace {
+
+MapParams params() { return outdoor_preset().map; }
+
+HVoxel hv(float lo, float hi, float count) {
+  HVoxel v{lo, hi, count, 0.0F};
+  update_density(v, params());
+  return v;
+}
+
+TEST(ColumnTest, EmptyColumnFindsNothing) {
+  Column c;
+  EXPECT_TRUE(c.empty());
+  EXPECT_EQ(c.find(0.0F), nullptr);
+  EXPECT_EQ(c.lower_bound(0.0F), 0U);
+  EXPECT_TRUE(c.is_valid());
+  EXPECT_EQ(c.heap_bytes(), 0U);
+}
+
+TEST(ColumnTest, MergeDisjointKeepsOrder) {
+  Column c;
+  c.merge(hv(2.0F, 2.5F, 3), 0.4F, params());
+  c.merge(hv(0.0F, 0.1F, 3), 0.4F, params());
+  c.merge(hv(1.0F, 1.2F, 3), 0.4F, params());
+  ASSERT_EQ(c.size(), 3U);
+  EXPECT_FLOAT_EQ(c[0].z_min, 0.0F);
+  EXPECT_FLOAT_EQ(c[1].z_min, 1.0F);
+  EXPECT_FLOAT_EQ(c[2].z_min, 2.0F);
+  EXPECT_TRUE(c.is_valid());
+  EXPECT_GT(c.heap_bytes(), 0U);
+}
+
+TEST(ColumnTest, MergeUnitesOverlapAndGapWithinThreshold) {
+  Column c;
+  c.merge(hv(0.0F, 1.0F, 10), 0.4F, params());
+  c.merge(hv(2.0F, 3.0F, 20), 0.4F, params());
+  // Bridges both: gap 1.0 -> 1.3 is 0.3 <= 0.4, and 1.7 -> 2.0 is 0.3 <= 0.4.
+  c.merge(hv(1.3F, 1.7F, 5), 0.4F, params());
+  ASSERT_EQ(c.size(), 1U);
+  EXPECT_FLOAT_EQ(c[0].z_min, 0.0F);
+  EXPECT_FLOAT_EQ(c[0].z_max, 3.0F);
+  EXPECT_FLOAT_EQ(c[0].count, 35.0F);
+  EXPECT_FLOAT_EQ(c[0].density, hvoxel_density(35.0, 3.0, params()));
+  EXPECT_EQ(c.heap_bytes(), 0U);  // back to the inline HVoxel
+}
+
+TEST(ColumnTest, MergeJustBeyondThresholdStaysApart) {
+  Column c;
+  c.merge(hv(0.0F, 1.0F, 10), 0.4F, params());
+  c.merge(hv(1.41F, 2.0F, 10), 0.4F, params());
+  EXPECT_EQ(c.size(), 2U);
+}
+
+TEST(ColumnTest, FindMatchesLinearScan) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> z(-5.0F, 5.0F);
+  Column c;
+  for (int k = 0; k < 40; ++k) {
+    const float a = z(rng);
+    c.merge(hv(a, a + 0.05F, 1), 0.0F, params());
+  }
+  ASSERT_TRUE(c.is_valid());
+  for (int k = 0; k < 2000; ++k) {
+    const float q = z(rng);
+    const HVoxel* brute = nullptr;
+    for (const HVoxel& v : c)
+      if (v.z_min <= q && q <= v.z_max) brute = &v;
+    EXPECT_EQ(c.find(q), brute) << "z = " << q;
+  }
+}
+
+TEST(ColumnTest, CopyAndMoveKeepContents) {
+  Column c;
+  c.merge(hv(0.0F, 0.1F, 3), 0.0F, params());
+  c.merge(hv(1.0F, 1.1F, 3), 0.0F, params());
+  Column copy(c);
+  Column moved(std::move(c));
+  ASSERT_EQ(copy.size(), 2U);
+  ASSERT_EQ(moved.size(), 2U);
+  EXPECT_EQ(copy[1], moved[1]);
+  Column assigned;
+  assigned = copy;
+  EXPECT_EQ(assigned[0], copy[0]);
+}
+
+TEST(DensityTest, EquationOneByHand) {
+  MapParams p = params();  // K_m = 1, K_n = 0.0005, d_min = 5, cell 0.25 m, h floor 0.25 m
+  // |v| = d_min gives exactly K_m / 2 whatever the volume.
+  EXPECT_FLOAT_EQ(hvoxel_density(5, 1.0, p), 0.5F);
+  // |v| = 105, h = 2 m: V = 2 * 0.0625 = 0.125; x = 0.0005 * 100 / 0.125 = 0.4.
+  EXPECT_NEAR(hvoxel_density(105, 2.0, p), 1.0 / (1.0 + std::exp(-0.4)), 1e-6);
+  // One point: h = 0 is floored at 0.25 m: V = 0.015625, x = 0.0005 * -4 / 0.015625 = -0.128.
+  EXPECT_NEAR(hvoxel_density(1, 0.0, p), 1.0 / (1.0 + std::exp(0.128)), 1e-6);
+  p.density_gain = 2.0;
+  EXPECT_FLOAT_EQ(hvoxel_density(5, 1.0, p), 1.0F);
+}
+
+}  // namespace
+}  // namespace hmap

@@ -1,0 +1,154 @@
+#include "hmap/maps/free_space.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <random>
+
+namespace hmap {
+namespace {
+
+MapParams params() {
+  MapParams p;
+  p.cell_size = 0.2;
+  p.min_range = 0.0;
+  p.max_range = 12.0;
+  p.point_distance_threshold = 0.1;
+  p.density_threshold = 0.0;  // every HVoxel casts a ray
+  return p;
+}
+
+struct KeyLess {
+  bool operator()(const CellKey& a, const CellKey& b) const {
+    return a.i != b.i ? a.i < b.i : a.j < b.j;
+  }
+};
+
+TEST(FreeCellTest, UnitesOverlapsAndCountsRays) {
+  FreeCell c;
+  c.add(0.0F, 1.0F, 1, 0.1F);
+  c.add(2.0F, 3.0F, 1, 0.1F);
+  c.add(0.5F, 2.5F, 1, 0.1F);  // bridges both
+  ASSERT_EQ(c.n, 1U);
+  EXPECT_FLOAT_EQ(c.intervals[0].z_min, 0.0F);
+  EXPECT_FLOAT_EQ(c.intervals[0].z_max, 3.0F);
+  EXPECT_FLOAT_EQ(c.intervals[0].rays, 3.0F);
+}
+
+TEST(FreeCellTest, FullCellJoinsNearestOnlyWhenClose) {
+  FreeCell c;
+  for (int k = 0; k < FreeCell::kMaxIntervals; ++k) c.add(static_cast<float>(k), static_cast<float>(k) + 0.5F, 1, 0.2F);
+  c.add(100.0F, 101.0F, 1, 0.2F);  // far from all: dropped
+  EXPECT_EQ(c.n, static_cast<std::uint32_t>(FreeCell::kMaxIntervals));
+  float rays = 0;
+  for (const auto& f : c.hvoxels()) rays += f.rays;
+  EXPECT_FLOAT_EQ(rays, static_cast<float>(FreeCell::kMaxIntervals));
+  c.add(0.6F, 0.65F, 1, 0.2F);  // 0.1 above [0, 0.5]: joins it
+  bool joined = false;
+  for (const auto& f : c.hvoxels()) joined |= f.z_min == 0.0F && f.z_max == 0.65F && f.rays == 2.0F;
+  EXPECT_TRUE(joined);
+}
+
+// Brute-force twin of Alg. 3: sample each ray's 2D segment finely, and per crossed cell record
+// the band between the two line models; the tracer's free intervals must equal the union.
+TEST(FreeSpaceTest, MatchesDenseSegmentSampling) {
+  const MapParams p = params();
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> xy(-8.0, 8.0);
+  std::uniform_real_distribution<float> z(-1.0F, 2.5F);
+  for (int trial = 0; trial < 20; ++trial) {
+    ScanHVoxels scan;
+    scan.origin_map = {0.07, -0.13, 1.2};
+    scan.window = {{0, -1}, static_cast<std::int32_t>(std::ceil(p.max_range / p.cell_size)) + 1, 0};
+    scan.window.width = 2 * scan.window.half + 1;
+    // Three rays, far apart in direction, so no cell gets more bands than a FreeCell holds.
+    for (int r = 0; r < 3; ++r) {
+      const double angle = 2.0 * M_PI * (r + 0.3 * trial / 20.0) / 3.0;
+      const double dist = 2.0 + std::abs(xy(rng)) * 0.7;
+      const CellKey key{static_cast<int>(std::floor((scan.origin_map.x() + dist * std::cos(angle)) / p.cell_size)),
+                        static_cast<int>(std::floor((scan.origin_map.y() + dist * std::sin(angle)) / p.cell_size))};
+      const float a = z(rng);
+      const float b = a + std::abs(z(rng)) * 0.5F;
+      scan.cells.push_back({key, static_cast<std::uint32_t>(scan.hvoxels.size()), 1});
+      scan.hvoxels.push_back({a, b, 10.0F, 1.0F});
+    }
+    FreeSpaceTracer tracer(p);
+    tracer.trace(scan);
+    EXPECT_EQ(tracer.rays(), 3U);
+
+    std::map<CellKey, std::vector<std::pair<double, double>>, KeyLess> brute;
+    for (const ScanCell& c : scan.cells) {
+      const HVoxel& v = scan.hvoxels[c.first];
+      const double xt = (c.key.i + 0.5) * p.cell_size;
+      const double yt = (c.key.j + 0.5) * p.cell_size;
+      std::map<CellKey, std::pair<double, double>, KeyLess> band;
+      const int samples = 200000;
+      for (int s = 0; s <= samples; ++s) {
+        const double t = static_cast<double>(s) / samples;
+        const CellKey k{static_cast<int>(std::floor((scan.origin_map.x() + t * (xt - scan.origin_map.x())) / p.cell_size)),
+                        static_cast<int>(std::floor((scan.origin_map.y() + t * (yt - scan.origin_map.y())) / p.cell_size))};
+        if (k == c.key) break;
+        const double zl = scan.origin_map.z() + t * (v.z_min - scan.origin_map.z());
+        const double zu = scan.origin_map.z() + t * (v.z_max - scan.origin_map.z());
+        auto [it, fresh] = band.try_emplace(k, std::min(zl, zu), std::max(zl, zu));
+        if (!fresh) {
+          it->second.first = std::min(it->second.first, std::min(zl, zu));
+          it->second.second = std::max(it->second.second, std::max(zl, zu));
+        }
+      }
+      for (const auto& [k, b] : band) brute[k].push_back(b);
+    }
+    // Same cells.
+    std::size_t tracer_cells = 0;
+    for (const FreeCell& fc : tracer.cells()) {
+      ++tracer_cells;
+      ASSERT_TRUE(brute.count(fc.key)) << "trial " << trial << ": extra cell " << fc.key.i << "," << fc.key.j;
+    }
+    // Cells the sampling touches only within 1e-5 of a corner may be missed by either side.
+    EXPECT_NEAR(static_cast<double>(tracer_cells), static_cast<double>(brute.size()), 2.0);
+    for (const FreeCell& fc : tracer.cells()) {
+      auto bands = brute[fc.key];
+      std::sort(bands.begin(), bands.end());
+      std::vector<std::pair<double, double>> united;
+      for (const auto& b : bands) {
+        if (!united.empty() && b.first <= united.back().second + 1e-4) {
+          united.back().second = std::max(united.back().second, b.second);
+        } else {
+          united.push_back(b);
+        }
+      }
+      auto free = std::vector<FreeHVoxel>(fc.hvoxels().begin(), fc.hvoxels().end());
+      std::sort(free.begin(), free.end(), [](const auto& a, const auto& b) { return a.z_min < b.z_min; });
+      ASSERT_EQ(free.size(), united.size()) << "trial " << trial;
+      for (std::size_t k = 0; k < free.size(); ++k) {
+        const double tol = 2e-4 * 40.0;  // sampling step times the steepest slope
+        EXPECT_NEAR(free[k].z_min, united[k].first, tol);
+        EXPECT_NEAR(free[k].z_max, united[k].second, tol);
+      }
+    }
+  }
+}
+
+TEST(FreeSpaceTest, LowDensityHVoxelsCastNoRay) {
+  MapParams p = params();
+  p.density_threshold = 0.5;
+  ScanHVoxels scan;
+  scan.window = {{0, 0}, static_cast<std::int32_t>(std::ceil(p.max_range / p.cell_size)) + 1, 0};
+  scan.window.width = 2 * scan.window.half + 1;
+  scan.cells.push_back({{20, 0}, 0, 2});
+  scan.hvoxels.push_back({0.0F, 0.1F, 1.0F, 0.2F});
+  scan.hvoxels.push_back({1.0F, 1.1F, 50.0F, 0.9F});
+  FreeSpaceTracer tracer(p);
+  tracer.trace(scan);
+  EXPECT_EQ(tracer.rays(), 1U);
+  EXPECT_EQ(tracer.cells().size(), 20U);  // cells 0..19 on the x axis
+  scan.hvoxels[1].density = 0.1F;
+  tracer.trace(scan);
+  EXPECT_EQ(tracer.rays(), 0U);
+  EXPECT_TRUE(tracer.cells().empty());
+}
+
+}  // namespace
+}  // namespace hmap

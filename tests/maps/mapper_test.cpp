@@ -1,0 +1,141 @@
+#include "hmap/maps/mapper.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "hmap/core/error.hpp"
+
+namespace hmap {
+namespace {
+
+Params test_params() {
+  Params p = indoor_preset();
+  p.map.cell_size = 0.1;
+  p.map.point_distance_threshold = 0.15;
+  p.map.min_range = 0.1;
+  p.map.max_range = 20.0;
+  p.map.min_hvoxel_height = 0.1;
+  return p;
+}
+
+/// A room seen from (0, 0, 1): a wall at x = 8 (y in [-3, 3], z in [0, 2]) and a floor at z = 0,
+/// with an optional pillar at x in [3.9, 4.1], y in [-0.3, 0.3], z in [0, 1.5] hiding what is
+/// behind it. Points are in the sensor frame of an identity-rotation pose at `sensor`.
+PointCloud room_scan(bool with_pillar, const Eigen::Vector3d& sensor, std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  PointCloud pts;
+  auto hidden = [&](const Eigen::Vector3d& p) {
+    if (!with_pillar) return false;
+    // The segment sensor -> p crosses the pillar's box?
+    for (int s = 1; s < 200; ++s) {
+      const Eigen::Vector3d q = sensor + (p - sensor) * (s / 200.0);
+      if (q.x() > 3.9 && q.x() < 4.1 && std::abs(q.y()) < 0.3 && q.z() < 1.5) return true;
+    }
+    return false;
+  };
+  auto add = [&](const Eigen::Vector3d& p) {
+    if (!hidden(p)) pts.emplace_back((p - sensor).cast<float>());
+  };
+  for (int k = 0; k < 6000; ++k) add({8.0, -3.0 + 6.0 * u(rng), 2.0 * u(rng)});          // wall
+  for (int k = 0; k < 6000; ++k) add({1.0 + 7.0 * u(rng), -3.0 + 6.0 * u(rng), 0.0});    // floor
+  if (with_pillar) {
+    for (int k = 0; k < 1500; ++k) pts.emplace_back((Eigen::Vector3d(3.9, -0.3 + 0.6 * u(rng), 1.5 * u(rng)) - sensor).cast<float>());
+  }
+  return pts;
+}
+
+Pose at(const Eigen::Vector3d& t) {
+  Pose T = Pose::Identity();
+  T.translation() = t;
+  return T;
+}
+
+TEST(MapperTest, EmptyScanLeavesMapEmpty) {
+  Mapper m(test_params());
+  const auto s = m.integrate({}, Pose::Identity());
+  EXPECT_EQ(s.points_in, 0U);
+  EXPECT_TRUE(m.map().empty());
+  EXPECT_EQ(m.map().stats().hvoxels, 0U);
+}
+
+TEST(MapperTest, InvalidParametersAreRejected) {
+  Params p = test_params();
+  p.map.cell_size = -0.1;
+  EXPECT_THROW(Mapper{p}, Error);
+  p = test_params();
+  p.map.cell_size = 1e-6;
+  EXPECT_THROW(Mapper{p}, Error);
+  p = test_params();
+  p.map.max_range = 1e9;
+  EXPECT_THROW(Mapper{p}, Error);
+}
+
+TEST(MapperTest, WallAndFloorAreMapped) {
+  Mapper m(test_params());
+  const Eigen::Vector3d sensor(0, 0, 1);
+  const auto s = m.integrate(room_scan(false, sensor, 1), at(sensor));
+  EXPECT_EQ(s.points_kept, s.points_in);
+  EXPECT_GT(s.rays, 0U);
+  EXPECT_TRUE(m.map().occupied(8.05, 0.0, 1.0));
+  EXPECT_TRUE(m.map().occupied(5.05, 1.05, 0.0));
+  EXPECT_FALSE(m.map().occupied(5.05, 1.05, 1.0));
+  const MapStats st = m.map().stats();
+  EXPECT_GT(st.cells, 1000U);
+  EXPECT_GE(st.hvoxels, st.cells);
+  EXPECT_GT(st.memory_bytes, st.hvoxels * sizeof(HVoxel));
+  EXPECT_NEAR(st.bounds.max().x(), 8.1, 1e-6);
+}
+
+TEST(MapperTest, DynamicObjectIsCarvedOutOnceGone) {
+  Mapper m(test_params());
+  for (int k = 0; k < 3; ++k) {
+    const Eigen::Vector3d sensor(0.02 * k, 0.0, 1.0);
+    m.integrate(room_scan(true, sensor, 10 + k), at(sensor));
+  }
+  ASSERT_TRUE(m.map().occupied(3.95, 0.05, 1.0)) << "the pillar was mapped";
+  ASSERT_TRUE(m.map().occupied(3.95, 0.05, 0.7));
+  std::size_t removed = 0;
+  for (int k = 0; k < 8; ++k) {
+    const Eigen::Vector3d sensor(0.02 * k, 0.01 * k, 1.0);
+    removed += m.integrate(room_scan(false, sensor, 100 + k), at(sensor)).extrusion.removed;
+  }
+  EXPECT_GT(removed, 0U);
+  EXPECT_FALSE(m.map().occupied(3.95, 0.05, 1.0)) << "the pillar is gone";
+  EXPECT_FALSE(m.map().occupied(3.95, 0.05, 0.7));
+  // The static scene stays.
+  EXPECT_TRUE(m.map().occupied(8.05, 0.05, 1.0));
+  EXPECT_TRUE(m.map().occupied(6.05, 1.05, 0.0));
+}
+
+TEST(MapperTest, WithoutFreeSpaceTheObjectStays) {
+  Params p = test_params();
+  p.map.free_space = FreeSpaceMode::kNone;
+  Mapper m(p);
+  m.integrate(room_scan(true, {0, 0, 1}, 1), at({0, 0, 1}));
+  for (int k = 0; k < 5; ++k) m.integrate(room_scan(false, {0, 0, 1}, 2 + k), at({0, 0, 1}));
+  EXPECT_TRUE(m.map().occupied(3.95, 0.05, 1.0));
+}
+
+TEST(MapperTest, ColumnsStayValidAndRecoveryCoversHVoxels) {
+  Mapper m(test_params());
+  for (int k = 0; k < 4; ++k) {
+    const Eigen::Vector3d sensor(0.1 * k, -0.05 * k, 1.0);
+    m.integrate(room_scan(k < 2, sensor, 50 + k), at(sensor));
+  }
+  std::size_t hvoxels = 0;
+  m.map().for_each_column([&](const CellKey&, const Column& c) {
+    EXPECT_TRUE(c.is_valid());
+    hvoxels += c.size();
+  });
+  const PointCloud pts = recover_points(m.map(), 0.05);
+  EXPECT_GE(pts.size(), hvoxels);
+  for (std::size_t k = 0; k < pts.size(); k += 97) {
+    EXPECT_TRUE(m.map().occupied(pts[k].x(), pts[k].y(), pts[k].z()));
+  }
+}
+
+}  // namespace
+}  // namespace hmap

@@ -1,0 +1,135 @@
+#include "hmap/maps/scan_hvoxels.hpp"
+
+#include "hmap/core/error.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+namespace hmap {
+namespace {
+
+MapParams unit_params() {
+  MapParams p;
+  p.cell_size = 1.0;
+  p.point_distance_threshold = 0.5;
+  p.min_range = 0.0;
+  p.max_range = 10.0;
+  p.min_hvoxel_height = 0.1;
+  return p;
+}
+
+TEST(ScanHVoxelsTest, EmptyCloudGivesEmptyRepresentation) {
+  ScanHVoxelizer h(unit_params());
+  ScanHVoxels r;
+  h.build({}, Pose::Identity(), r);
+  EXPECT_TRUE(r.cells.empty());
+  EXPECT_TRUE(r.hvoxels.empty());
+  EXPECT_EQ(r.points_in, 0U);
+}
+
+// Alg. 1 + 2 by hand: cell (2, 0) gets heights {0, 0.2, 0.4, 1.5, 1.9}: gap 0.4 -> 1.5 is 1.1
+// > 0.5, so two clusters [0, 0.4] (3 points) and [1.5, 1.9] (2 points); cell (-1, 3) one point.
+TEST(ScanHVoxelsTest, IndexingAndClusteringByHand) {
+  ScanHVoxelizer h(unit_params());
+  ScanHVoxels r;
+  PointCloud pts = {{2.5F, 0.5F, 0.4F}, {2.1F, 0.9F, 0.0F}, {2.9F, 0.1F, 1.9F},
+                    {2.5F, 0.5F, 1.5F}, {2.2F, 0.3F, 0.2F}, {-0.5F, 3.5F, 1.0F}};
+  h.build(pts, Pose::Identity(), r);
+  ASSERT_EQ(r.cells.size(), 2U);
+  EXPECT_EQ(r.points_kept, 6U);
+  const ScanCell* c20 = nullptr;
+  const ScanCell* cm13 = nullptr;
+  for (const auto& c : r.cells) {
+    if (c.key == CellKey{2, 0}) c20 = &c;
+    if (c.key == CellKey{-1, 3}) cm13 = &c;
+  }
+  ASSERT_NE(c20, nullptr);
+  ASSERT_NE(cm13, nullptr);
+  const auto v = r.hvoxels_of(*c20);
+  ASSERT_EQ(v.size(), 2U);
+  EXPECT_FLOAT_EQ(v[0].z_min, 0.0F);
+  EXPECT_FLOAT_EQ(v[0].z_max, 0.4F);
+  EXPECT_FLOAT_EQ(v[0].count, 3.0F);
+  EXPECT_FLOAT_EQ(v[1].z_min, 1.5F);
+  EXPECT_FLOAT_EQ(v[1].z_max, 1.9F);
+  EXPECT_FLOAT_EQ(v[1].count, 2.0F);
+  // eq. (1): V = 0.4 * 1 m^2, x = 0.0005 * (3 - 5) / 0.4.
+  EXPECT_NEAR(v[0].density, 1.0 / (1.0 + std::exp(0.0005 * 2 / 0.4)), 1e-6);
+  const auto w = r.hvoxels_of(*cm13);
+  ASSERT_EQ(w.size(), 1U);
+  EXPECT_FLOAT_EQ(w[0].z_min, 1.0F);
+  EXPECT_FLOAT_EQ(w[0].z_max, 1.0F);
+}
+
+TEST(ScanHVoxelsTest, ThresholdBoundary) {
+  MapParams p = unit_params();
+  p.point_distance_threshold = 0.25;  // exactly representable, as are the heights below
+  ScanHVoxelizer h(p);
+  ScanHVoxels r;
+  // Gap of exactly the threshold joins; a gap just above splits.
+  PointCloud pts = {{0.5F, 0.5F, 0.0F}, {0.5F, 0.5F, 0.25F}, {0.5F, 0.5F, 0.5F + 0.001F}};
+  h.build(pts, Pose::Identity(), r);
+  ASSERT_EQ(r.cells.size(), 1U);
+  const auto v = r.hvoxels_of(r.cells[0]);
+  ASSERT_EQ(v.size(), 2U);
+  EXPECT_FLOAT_EQ(v[0].z_max, 0.25F);
+  EXPECT_FLOAT_EQ(v[1].z_min, 0.501F);
+}
+
+TEST(ScanHVoxelsTest, DropsNonFiniteAndOutOfRangeAndCounts) {
+  MapParams p = unit_params();
+  p.min_range = 1.0;
+  p.max_range = 5.0;
+  ScanHVoxelizer h(p);
+  ScanHVoxels r;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const float inf = std::numeric_limits<float>::infinity();
+  PointCloud pts = {{nan, 0, 0}, {0, inf, 0}, {0.5F, 0, 0}, {6.0F, 0, 0}, {1e30F, 0, 0},
+                    {2.0F, 0, 0}, {0, -3.0F, 1.0F}};
+  h.build(pts, Pose::Identity(), r);
+  EXPECT_EQ(r.points_in, 7U);
+  EXPECT_EQ(r.dropped_non_finite, 2U);
+  EXPECT_EQ(r.dropped_range, 3U);
+  EXPECT_EQ(r.points_kept, 2U);
+  EXPECT_EQ(r.cells.size(), 2U);
+}
+
+TEST(ScanHVoxelsTest, TransformsToMapFrameBeforeBinning) {
+  ScanHVoxelizer h(unit_params());
+  ScanHVoxels r;
+  Pose T = Pose::Identity();
+  T.translate(Eigen::Vector3d(100.0, -50.0, 2.0));
+  T.rotate(Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()));
+  PointCloud pts = {{3.5F, 0.0F, 0.0F}};  // rotated to (0, 3.5), translated to (100, -46.5, 2)
+  h.build(pts, T, r);
+  ASSERT_EQ(r.cells.size(), 1U);
+  EXPECT_EQ(r.cells[0].key, (CellKey{100, -47}));
+  EXPECT_FLOAT_EQ(r.hvoxels[0].z_min, 2.0F);
+  EXPECT_EQ(r.origin_map, Eigen::Vector3d(100.0, -50.0, 2.0));
+}
+
+TEST(ScanHVoxelsTest, BuffersAreReusedAcrossScans) {
+  ScanHVoxelizer h(unit_params());
+  ScanHVoxels r;
+  PointCloud a = {{1.5F, 1.5F, 0.0F}};
+  PointCloud b = {{-2.5F, 1.5F, 0.0F}};
+  h.build(a, Pose::Identity(), r);
+  h.build(b, Pose::Identity(), r);
+  ASSERT_EQ(r.cells.size(), 1U);
+  EXPECT_EQ(r.cells[0].key, (CellKey{-3, 1}));
+  EXPECT_EQ(r.hvoxels.size(), 1U);
+}
+
+TEST(ScanHVoxelsTest, NonFinitePoseIsAnError) {
+  ScanHVoxelizer h(unit_params());
+  ScanHVoxels r;
+  Pose T = Pose::Identity();
+  T.translation().x() = std::numeric_limits<double>::quiet_NaN();
+  PointCloud a = {{1.5F, 1.5F, 0.0F}};
+  EXPECT_THROW(h.build(a, T, r), Error);
+}
+
+}  // namespace
+}  // namespace hmap
