@@ -32,18 +32,6 @@ Column::~Column() {
 
 std::size_t Column::heap_bytes() const { return capacity_ > 1 ? capacity_ * sizeof(HVoxel) : 0; }
 
-std::size_t Column::lower_bound(float z) const {
-  const HVoxel* it =
-      std::lower_bound(begin(), end(), z, [](const HVoxel& v, float zz) { return v.z_max < zz; });
-  return static_cast<std::size_t>(it - begin());
-}
-
-const HVoxel* Column::find(float z) const {
-  const std::size_t i = lower_bound(z);
-  if (i < size_ && data()[i].z_min <= z) return data() + i;
-  return nullptr;
-}
-
 void Column::grow(std::uint32_t min_capacity) {
   std::uint32_t cap = capacity_ > 1 ? capacity_ : 2;
   while (cap < min_capacity) cap *= 2;

@@ -30,9 +30,27 @@ class Column {
   [[nodiscard]] std::size_t heap_bytes() const;
 
   /// The HVoxel containing height z, or nullptr; binary search, O(log n).
-  [[nodiscard]] const HVoxel* find(float z) const;
+  [[nodiscard]] const HVoxel* find(float z) const {
+    const std::size_t i = lower_bound(z);
+    return i < size_ && data()[i].z_min <= z ? data() + i : nullptr;
+  }
   /// Index of the first HVoxel whose z_max >= z (size() if none).
-  [[nodiscard]] std::size_t lower_bound(float z) const;
+  [[nodiscard]] std::size_t lower_bound(float z) const {
+    // Columns are short: a linear scan beats bisection below a handful of HVoxels.
+    const HVoxel* d = data();
+    if (size_ <= 8) {
+      std::size_t i = 0;
+      while (i < size_ && d[i].z_max < z) ++i;
+      return i;
+    }
+    std::size_t lo = 0;
+    std::size_t hi = size_;
+    while (lo < hi) {
+      const std::size_t mid = (lo + hi) / 2;
+      if (d[mid].z_max < z) lo = mid + 1; else hi = mid;
+    }
+    return lo;
+  }
 
   /// Inserts at `pos`; the caller keeps the order (column invariant: sorted, disjoint).
   void insert(std::size_t pos, const HVoxel& v);

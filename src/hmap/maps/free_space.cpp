@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 
+#include <tbb/parallel_invoke.h>
+
 #include "hmap/maps/ray_trace.hpp"
 
 namespace hmap {
@@ -54,46 +56,71 @@ void FreeCell::add(float lo, float hi, float rays, float join_gap) {
 
 FreeSpaceTracer::FreeSpaceTracer(const MapParams& params) : params_(params) {
   const auto half = static_cast<std::int32_t>(std::ceil(params_.max_range / params_.cell_size)) + 1;
-  slot_of_window_.assign(static_cast<std::size_t>(2 * half + 1) * (2 * half + 1), 0);
+  for (auto& side : sides_) side.slot_of_window.assign(static_cast<std::size_t>(2 * half + 1) * (2 * half + 1), 0);
+}
+
+void FreeSpaceTracer::Accumulator::reset() {
+  for (std::size_t w : used_windows) slot_of_window[w] = 0;
+  used_windows.clear();
+  cells.clear();
+  targets.clear();
+  rays = 0;
+}
+
+FreeCell& FreeSpaceTracer::Accumulator::cell_at(std::size_t w, const CellKey& key) {
+  std::uint32_t& slot = slot_of_window[w];
+  if (slot == 0) {
+    cells.push_back({key, 0, {}});
+    slot = static_cast<std::uint32_t>(cells.size());
+    used_windows.push_back(w);
+  }
+  return cells[slot - 1];
 }
 
 void FreeSpaceTracer::trace(const ScanHVoxels& scan) {
-  for (std::size_t w : used_windows_) slot_of_window_[w] = 0;
-  used_windows_.clear();
-  cells_.clear();
-  rays_ = 0;
-
-  const double cell = params_.cell_size;
-  const auto n_th = static_cast<float>(params_.density_threshold);
+  for (auto& side : sides_) side.reset();
+  // Rays to cells at or above the sensor's row stay at or above it, and those below stay at or
+  // below: the two sides share only the sensor's row.
+  const std::int32_t row = scan.window.center.j;
+  for (std::uint32_t c = 0; c < scan.cells.size(); ++c) {
+    sides_[scan.cells[c].key.j >= row ? 0 : 1].targets.push_back(c);
+  }
+  tbb::parallel_invoke([&] { sides_[0].trace(scan, params_); }, [&] { sides_[1].trace(scan, params_); });
+  // Fold the second side into the first.
   const auto join_gap = static_cast<float>(params_.point_distance_threshold);
+  Accumulator& a = sides_[0];
+  for (const FreeCell& fc : sides_[1].cells) {
+    FreeCell& into = a.cell_at(scan.window.index(fc.key), fc.key);
+    for (const FreeHVoxel& f : fc.hvoxels()) into.add(f.z_min, f.z_max, f.rays, join_gap);
+  }
+}
+
+void FreeSpaceTracer::Accumulator::trace(const ScanHVoxels& scan, const MapParams& params) {
+  const double cell = params.cell_size;
+  const auto n_th = static_cast<float>(params.density_threshold);
+  const auto join_gap = static_cast<float>(params.point_distance_threshold);
   const double xs = scan.origin_map.x();
   const double ys = scan.origin_map.y();
   const auto zs = static_cast<float>(scan.origin_map.z());
 
-  for (const ScanCell& target : scan.cells) {
-    ray_dz_.clear();
+  for (std::uint32_t target_index : targets) {
+    const ScanCell& target = scan.cells[target_index];
+    ray_dz.clear();
     for (const HVoxel& v : scan.hvoxels_of(target)) {
-      if (v.density >= n_th) ray_dz_.emplace_back(v.z_min - zs, v.z_max - zs);  // line models
+      if (v.density >= n_th) ray_dz.emplace_back(v.z_min - zs, v.z_max - zs);  // line models
     }
-    if (ray_dz_.empty()) continue;
-    rays_ += ray_dz_.size();
+    if (ray_dz.empty()) continue;
+    rays += ray_dz.size();
     const double xt = (target.key.i + 0.5) * cell;
     const double yt = (target.key.j + 0.5) * cell;
     const double length_cells = std::hypot(xt - xs, yt - ys) / cell;
     traverse_2d(xs, ys, xt, yt, cell, [&](const CellKey& key, double t_in, double t_out) {
       if (key == target.key) return false;  // the HVoxel's own cell is not free
       if ((t_out - t_in) * length_cells < 1e-6) return true;  // touched at a corner only
-      const std::size_t w = scan.window.index(key);
-      std::uint32_t& slot = slot_of_window_[w];
-      if (slot == 0) {
-        cells_.push_back({key, 0, {}});
-        slot = static_cast<std::uint32_t>(cells_.size());
-        used_windows_.push_back(w);
-      }
-      FreeCell& free_cell = cells_[slot - 1];
+      FreeCell& free_cell = cell_at(scan.window.index(key), key);
       const auto a = static_cast<float>(t_in);
       const auto b = static_cast<float>(t_out);
-      for (const Eigen::Vector2f& dz : ray_dz_) {
+      for (const Eigen::Vector2f& dz : ray_dz) {
         // Lines are linear in t: their extremes over [t_in, t_out] are at the ends.
         const float lo = zs + std::min(a * dz.x(), b * dz.x());
         const float hi = zs + std::max(a * dz.y(), b * dz.y());

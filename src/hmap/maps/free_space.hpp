@@ -24,6 +24,8 @@ struct FreeCell {
 };
 
 /// Casts one ray per HVoxel of a scan from the sensor origin and accumulates the free HVoxels.
+/// The rays run on two threads (TBB), one per side of the sensor's row of cells, each into its
+/// own accumulator; the few cells both sides reach (the sensor's row) are folded together after.
 class FreeSpaceTracer {
  public:
   explicit FreeSpaceTracer(const MapParams& params);
@@ -33,18 +35,24 @@ class FreeSpaceTracer {
   /// get the free interval swept between the line models to z_max and to z_min over the cell.
   void trace(const ScanHVoxels& scan);
 
-  [[nodiscard]] const std::vector<FreeCell>& cells() const { return cells_; }
-  /// Free cell index + 1 of each window cell of the last trace (0: none).
-  [[nodiscard]] const std::vector<std::uint32_t>& cell_of_window() const { return slot_of_window_; }
-  [[nodiscard]] std::size_t rays() const { return rays_; }
+  [[nodiscard]] const std::vector<FreeCell>& cells() const { return sides_[0].cells; }
+  [[nodiscard]] std::size_t rays() const { return sides_[0].rays + sides_[1].rays; }
 
  private:
+  struct Accumulator {
+    std::vector<std::uint32_t> slot_of_window;  // free cell index + 1 per window cell, 0: none
+    std::vector<std::size_t> used_windows;
+    std::vector<FreeCell> cells;
+    std::vector<std::uint32_t> targets;         // scan cells whose rays this side casts
+    std::vector<Eigen::Vector2f> ray_dz;        // (z_min, z_max) − z_s of the current target
+    std::size_t rays = 0;
+    void reset();
+    void trace(const ScanHVoxels& scan, const MapParams& params);
+    FreeCell& cell_at(std::size_t window_index, const CellKey& key);
+  };
+
   MapParams params_;
-  std::vector<std::uint32_t> slot_of_window_;
-  std::vector<std::size_t> used_windows_;
-  std::vector<FreeCell> cells_;
-  std::vector<Eigen::Vector2f> ray_dz_;  // per HVoxel ray of the current cell: (z_min, z_max) − z_s
-  std::size_t rays_ = 0;
+  std::array<Accumulator, 2> sides_;
 };
 
 }  // namespace hmap

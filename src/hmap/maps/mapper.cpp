@@ -1,5 +1,9 @@
 #include "hmap/maps/mapper.hpp"
 
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 
 namespace hmap {
@@ -65,20 +69,35 @@ void subtract(const FreeHVoxel& f, std::span<const HVoxel> occupied, std::vector
 void Mapper::extrude_free_space(ScanStats& stats) {
   const MapParams& p = map_.params().map;
   const auto& scan_cell_of_window = hvoxelizer_.cell_of_window();
-  for (const FreeCell& free_cell : tracer_.cells()) {
-    Column* column = map_.find_column(free_cell.key);
-    if (column == nullptr || column->empty()) continue;
-    // Within one scan a hit outranks a pass-through, as in OctoMap: the scan's own HVoxels in
-    // this cell are not carved by its own rays.
-    const std::uint32_t own = scan_cell_of_window[scan_.window.index(free_cell.key)];
-    std::span<const FreeHVoxel> free = free_cell.hvoxels();
-    if (own != 0) {
-      pieces_.clear();
-      const auto own_hvoxels = scan_.hvoxels_of(scan_.cells[own - 1]);
-      for (const FreeHVoxel& f : free) subtract(f, own_hvoxels, pieces_);
-      free = pieces_;
+  const auto& free_cells = tracer_.cells();
+  // Each free cell changes only its own column, and no tile is created: cells run in parallel.
+  tbb::enumerable_thread_specific<std::vector<FreeHVoxel>> pieces_of_thread;
+  tbb::enumerable_thread_specific<ExtrusionCounts> counts_of_thread;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, free_cells.size(), 512), [&](const auto& range) {
+    auto& pieces = pieces_of_thread.local();
+    auto& counts = counts_of_thread.local();
+    for (std::size_t k = range.begin(); k != range.end(); ++k) {
+      const FreeCell& free_cell = free_cells[k];
+      Column* column = map_.find_column(free_cell.key);
+      if (column == nullptr || column->empty()) continue;
+      // Within one scan a hit outranks a pass-through, as in OctoMap: the scan's own HVoxels in
+      // this cell are not carved by its own rays.
+      const std::uint32_t own = scan_cell_of_window[scan_.window.index(free_cell.key)];
+      std::span<const FreeHVoxel> free = free_cell.hvoxels();
+      if (own != 0) {
+        pieces.clear();
+        const auto own_hvoxels = scan_.hvoxels_of(scan_.cells[own - 1]);
+        for (const FreeHVoxel& f : free) subtract(f, own_hvoxels, pieces);
+        free = pieces;
+      }
+      extrude(*column, free, p, counts);
     }
-    extrude(*column, free, p, stats.extrusion);
+  });
+  for (const ExtrusionCounts& c : counts_of_thread) {
+    stats.extrusion.updated += c.updated;
+    stats.extrusion.trimmed += c.trimmed;
+    stats.extrusion.subdivided += c.subdivided;
+    stats.extrusion.removed += c.removed;
   }
 }
 

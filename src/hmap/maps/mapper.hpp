@@ -48,7 +48,6 @@ class Mapper {
   ScanHVoxelizer hvoxelizer_;
   FreeSpaceTracer tracer_;
   ScanHVoxels scan_;
-  std::vector<FreeHVoxel> pieces_;  // free HVoxels of one cell minus the scan's own HVoxels
 };
 
 }  // namespace hmap

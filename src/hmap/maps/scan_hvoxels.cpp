@@ -95,7 +95,16 @@ void ScanHVoxelizer::cluster_heights(ScanHVoxels& out) {
   for (std::size_t c = 0; c < n_cells; ++c) {
     float* z = sorted_z_.data() + cell_offset_[c];
     float* z_end = sorted_z_.data() + cell_offset_[c + 1];
-    std::sort(z, z_end);
+    if (z_end - z <= 16) {  // most cells hold a few points: insertion sort wins
+      for (float* a = z + 1; a < z_end; ++a) {
+        const float value = *a;
+        float* b = a;
+        for (; b > z && *(b - 1) > value; --b) *b = *(b - 1);
+        *b = value;
+      }
+    } else {
+      std::sort(z, z_end);
+    }
     ScanCell& cell = out.cells[c];
     cell.first = static_cast<std::uint32_t>(out.hvoxels.size());
     // HeightClustering: a new segment starts where the gap exceeds the threshold.
