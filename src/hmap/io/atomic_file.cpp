@@ -1,0 +1,149 @@
+#include "hmap/io/atomic_file.hpp"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <array>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <random>
+#include <streambuf>
+#include <string>
+
+#include "hmap/core/error.hpp"
+
+namespace hmap {
+
+namespace {
+
+/// An output streambuf onto a POSIX file descriptor, so that the same fd can be fsynced.
+/// Remembers the errno of the first failed write.
+class FdStreambuf : public std::streambuf {
+ public:
+  explicit FdStreambuf(int fd) : fd_(fd) { setp(buffer_.data(), buffer_.data() + buffer_.size()); }
+
+  [[nodiscard]] int error() const { return error_; }
+
+ protected:
+  int_type overflow(int_type ch) override {
+    if (!flush_buffer()) return traits_type::eof();
+    if (!traits_type::eq_int_type(ch, traits_type::eof())) {
+      *pptr() = traits_type::to_char_type(ch);
+      pbump(1);
+    }
+    return traits_type::not_eof(ch);
+  }
+
+  int sync() override { return flush_buffer() ? 0 : -1; }
+
+  std::streamsize xsputn(const char* data, std::streamsize count) override {
+    // Large blocks bypass the buffer.
+    if (count >= static_cast<std::streamsize>(buffer_.size())) {
+      if (!flush_buffer() || !write_all(data, static_cast<std::size_t>(count))) return 0;
+      return count;
+    }
+    return std::streambuf::xsputn(data, count);
+  }
+
+ private:
+  bool flush_buffer() {
+    const auto pending = static_cast<std::size_t>(pptr() - pbase());
+    if (pending > 0 && !write_all(pbase(), pending)) return false;
+    setp(buffer_.data(), buffer_.data() + buffer_.size());
+    return true;
+  }
+
+  bool write_all(const char* data, std::size_t count) {
+    if (error_ != 0) return false;
+    while (count > 0) {
+      const ssize_t n = ::write(fd_, data, count);
+      if (n < 0) {
+        if (errno == EINTR) continue;
+        error_ = errno;
+        return false;
+      }
+      data += n;
+      count -= static_cast<std::size_t>(n);
+    }
+    return true;
+  }
+
+  int fd_;
+  int error_ = 0;
+  std::array<char, std::size_t{1} << 16> buffer_{};
+};
+
+std::filesystem::path temporary_path_for(const std::filesystem::path& path) {
+  std::random_device device;
+  char suffix[32];
+  std::snprintf(suffix, sizeof suffix, "%08x", static_cast<unsigned>(device()));
+  std::string name(1, '.');  // appended piecewise: `"." + std::string` trips a false -Wrestrict in GCC 12
+  name.append(path.filename().string()).append(".tmp.").append(std::to_string(::getpid()));
+  name.append(1, '.').append(suffix);
+  return path.parent_path() / name;
+}
+
+[[noreturn]] void fail(const std::filesystem::path& path, const std::string& what, int error) {
+  throw Error(path.string() + ": " + what + ": " + std::strerror(error));
+}
+
+/// Makes the rename durable; a failure here does not undo the write, so it is not reported.
+void sync_directory(const std::filesystem::path& dir) {
+  const int fd = ::open(dir.empty() ? "." : dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (fd < 0) return;
+  ::fsync(fd);
+  ::close(fd);
+}
+
+}  // namespace
+
+void write_file_atomic(const std::filesystem::path& path, const std::function<void(std::ostream&)>& writer) {
+  if (path.filename().empty()) throw Error(path.string() + ": not a file name");
+  const std::filesystem::path temporary = temporary_path_for(path);
+
+  // New files get 0666 minus the umask, as with std::ofstream; a replaced file keeps its mode.
+  struct stat existing {};
+  const bool replacing = ::stat(path.c_str(), &existing) == 0;
+  const int fd = ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+  if (fd < 0) fail(path, "cannot create temporary file " + temporary.string(), errno);
+  if (replacing) ::fchmod(fd, existing.st_mode & 07777);
+
+  bool fd_open = true;
+  const auto discard = [&] {
+    if (fd_open) ::close(fd);
+    fd_open = false;
+    ::unlink(temporary.c_str());
+  };
+
+  try {
+    FdStreambuf buffer(fd);
+    std::ostream out(&buffer);
+    try {
+      writer(out);
+    } catch (const Error& e) {
+      throw Error(path.string() + ": " + e.what());
+    } catch (const std::exception& e) {
+      throw Error(path.string() + ": cannot write: " + e.what());
+    }
+    out.flush();
+    if (!out) fail(path, "cannot write", buffer.error() != 0 ? buffer.error() : EIO);
+    if (::fsync(fd) != 0) fail(path, "cannot fsync", errno);
+    fd_open = false;
+    if (::close(fd) != 0) fail(path, "cannot close", errno);
+    if (::rename(temporary.c_str(), path.c_str()) != 0) fail(path, "cannot rename into place", errno);
+  } catch (...) {
+    discard();
+    throw;
+  }
+  sync_directory(path.parent_path());
+}
+
+void write_file_atomic(const std::filesystem::path& path, std::string_view bytes) {
+  write_file_atomic(path, [bytes](std::ostream& out) {
+    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  });
+}
+
+}  // namespace hmap

@@ -1,0 +1,15 @@
+#pragma once
+// One entry point for every point cloud format hmap reads, chosen by file extension.
+
+#include <filesystem>
+
+#include "hmap/core/types.hpp"
+#include "hmap/io/cloud_stats.hpp"
+
+namespace hmap {
+
+/// Reads a point cloud by its extension, in any letter case: .pcd (read_pcd), .ply (read_ply),
+/// .bin (read_kitti_bin), .xyz .txt .csv .pts (read_xyz). Throws InputError for another extension.
+[[nodiscard]] PointCloud read_cloud(const std::filesystem::path& path, CloudReadStats* stats = nullptr);
+
+}  // namespace hmap

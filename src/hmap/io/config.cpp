@@ -1,0 +1,117 @@
+#include "hmap/io/config.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <charconv>
+#include <cmath>
+#include <sstream>
+
+#include "hmap/core/error.hpp"
+
+namespace hmap {
+
+namespace {
+
+bool parse_double(std::string_view text, double& out) {
+  while (!text.empty() && text.front() == ' ') text.remove_prefix(1);
+  while (!text.empty() && text.back() == ' ') text.remove_suffix(1);
+  if (text.empty()) return false;
+  const auto [ptr, ec] = std::from_chars(text.data(), text.data() + text.size(), out);
+  return ec == std::errc() && ptr == text.data() + text.size() && std::isfinite(out);
+}
+
+ParamRef* find_param(std::vector<ParamRef>& refs, std::string_view name) {
+  for (auto& r : refs)
+    if (r.name == name) return &r;
+  return nullptr;
+}
+
+std::string known_names(const std::vector<ParamRef>& refs) {
+  std::string s;
+  for (const auto& r : refs) s += (s.empty() ? "" : ", ") + r.name;
+  return s;
+}
+
+void apply_node(const std::filesystem::path& path, const std::string& prefix, const YAML::Node& node,
+                std::vector<ParamRef>& refs) {
+  for (const auto& entry : node) {
+    const std::string key = entry.first.as<std::string>();
+    const std::string name = prefix.empty() ? key : prefix + "." + key;
+    const std::string line = "line " + std::to_string(entry.first.Mark().line + 1);
+    if (entry.second.IsMap()) {
+      apply_node(path, name, entry.second, refs);
+      continue;
+    }
+    if (name == "preset") continue;  // handled first
+    ParamRef* ref = find_param(refs, name);
+    if (ref == nullptr) {
+      throw InputError(path.string(), line, "unknown parameter '" + name + "' (known: " + known_names(refs) + ")");
+    }
+    double value = 0.0;
+    if (!entry.second.IsScalar() || !parse_double(entry.second.Scalar(), value)) {
+      throw InputError(path.string(), line, "parameter '" + name + "' needs a finite number");
+    }
+    ref->set(value);
+  }
+}
+
+}  // namespace
+
+void apply_config_file(const std::filesystem::path& path, Params& params) {
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(path.string());
+  } catch (const YAML::BadFile&) {
+    throw InputError(path.string(), "", "cannot open the parameter file");
+  } catch (const YAML::Exception& e) {
+    throw InputError(path.string(), "line " + std::to_string(e.mark.line + 1), "YAML syntax error: " + e.msg);
+  }
+  if (root.IsNull()) return;  // an empty file changes nothing
+  if (!root.IsMap()) throw InputError(path.string(), "", "expected a YAML mapping of parameter names to numbers");
+  try {
+    if (const auto p = root["preset"]; p && p.IsScalar()) params = preset(p.Scalar());
+    auto refs = param_refs(params);
+    apply_node(path, "", root, refs);
+  } catch (const InputError&) {
+    throw;
+  } catch (const YAML::Exception& e) {
+    throw InputError(path.string(), "line " + std::to_string(e.mark.line + 1), e.msg);
+  } catch (const Error& e) {
+    throw InputError(path.string(), "", e.what());
+  }
+  try {
+    validate(params);
+  } catch (const Error& e) {
+    throw InputError(path.string(), "", e.what());
+  }
+}
+
+void apply_override(std::string_view assignment, Params& params) {
+  const auto eq = assignment.find('=');
+  if (eq == std::string_view::npos) {
+    throw Error("parameter override '" + std::string(assignment) + "' must read name=value");
+  }
+  const std::string name(assignment.substr(0, eq));
+  auto refs = param_refs(params);
+  ParamRef* ref = find_param(refs, name);
+  if (ref == nullptr) throw Error("unknown parameter '" + name + "' (known: " + known_names(refs) + ")");
+  double value = 0.0;
+  if (!parse_double(assignment.substr(eq + 1), value)) {
+    throw Error("parameter '" + name + "' needs a finite number, got '" + std::string(assignment.substr(eq + 1)) + "'");
+  }
+  ref->set(value);
+}
+
+std::string params_to_yaml(const Params& params) {
+  Params copy = params;
+  std::ostringstream out;
+  for (const auto& r : param_refs(copy)) {
+    char number[32];
+    const auto end = std::to_chars(number, number + sizeof number, r.get()).ptr;  // shortest exact
+    out << r.name << ": " << std::string_view(number, static_cast<std::size_t>(end - number))
+        << "  # [" << r.unit << "] " << r.description << "\n";
+  }
+  return out.str();
+}
+
+}  // namespace hmap

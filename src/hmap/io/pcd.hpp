@@ -1,0 +1,18 @@
+#pragma once
+// Reader for the Point Cloud Library's PCD format (v0.7; v0.6 and files without VERSION too).
+
+#include <filesystem>
+
+#include "hmap/core/types.hpp"
+#include "hmap/io/cloud_stats.hpp"
+
+namespace hmap {
+
+/// Reads the x, y, z fields of a PCD file with DATA ascii, binary or binary_compressed (LZF).
+/// Fields may come in any order and have any COUNT; x, y, z must have COUNT 1 and TYPE F (SIZE 4
+/// or 8), I or U (SIZE 1, 2, 4 or 8). Points with a NaN or infinite coordinate (the invalid pixels
+/// of organized clouds) are dropped and counted in `stats`. Throws InputError naming the file and
+/// the line or byte for a header that contradicts itself or the file size, and for truncated data.
+[[nodiscard]] PointCloud read_pcd(const std::filesystem::path& path, CloudReadStats* stats = nullptr);
+
+}  // namespace hmap

@@ -1,0 +1,101 @@
+#include "hmap/io/atomic_file.hpp"
+
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+
+#include "io/io_test_util.hpp"
+
+namespace hmap {
+namespace {
+
+using test::contains;
+
+class AtomicFileTest : public test::IoTest {
+ protected:
+  [[nodiscard]] std::string read(const std::filesystem::path& path) const {
+    std::ifstream in(path, std::ios::binary);
+    std::ostringstream text;
+    text << in.rdbuf();
+    return text.str();
+  }
+  [[nodiscard]] std::size_t files_in_dir() const {
+    std::size_t count = 0;
+    for ([[maybe_unused]] const auto& entry : std::filesystem::directory_iterator(dir_)) ++count;
+    return count;
+  }
+};
+
+TEST_F(AtomicFileTest, WritesNewFile) {
+  const auto path = dir_ / "new.txt";
+  write_file_atomic(path, [](std::ostream& out) { out << "hello " << 42 << '\n'; });
+  EXPECT_EQ(read(path), "hello 42\n");
+  EXPECT_EQ(files_in_dir(), 1U);
+}
+
+TEST_F(AtomicFileTest, ReplacesExistingFileAndKeepsItsMode) {
+  const auto path = write("old.txt", "old content that is longer than the new one");
+  ::chmod(path.c_str(), 0640);
+  write_file_atomic(path, std::string_view("new"));
+  EXPECT_EQ(read(path), "new");
+  struct stat info {};
+  ASSERT_EQ(::stat(path.c_str(), &info), 0);
+  EXPECT_EQ(info.st_mode & 0777, 0640U);
+  EXPECT_EQ(files_in_dir(), 1U);
+}
+
+TEST_F(AtomicFileTest, WritesLargeContent) {
+  std::string big(3'000'000, 'x');
+  for (std::size_t i = 0; i < big.size(); i += 7) big[i] = static_cast<char>('a' + i % 26);
+  const auto path = dir_ / "big.bin";
+  write_file_atomic(path, [&](std::ostream& out) {
+    out.write(big.data(), 10);  // small write through the buffer, then a large one past it
+    out.write(big.data() + 10, static_cast<std::streamsize>(big.size() - 10));
+  });
+  EXPECT_EQ(read(path), big);
+}
+
+TEST_F(AtomicFileTest, ThrowingWriterLeavesOldFileAndNoTemporary) {
+  const auto path = write("keep.txt", "precious");
+  try {
+    write_file_atomic(path, [](std::ostream& out) {
+      out << std::string(100000, 'y');  // some of it already on disk in the temporary file
+      throw std::runtime_error("writer failed");
+    });
+    FAIL() << "no exception";
+  } catch (const Error& e) {
+    EXPECT_TRUE(contains(e.what(), path.string()));
+    EXPECT_TRUE(contains(e.what(), "writer failed"));
+  }
+  EXPECT_EQ(read(path), "precious");
+  EXPECT_EQ(files_in_dir(), 1U);
+}
+
+TEST_F(AtomicFileTest, HmapErrorsFromTheWriterNameThePath) {
+  const auto path = dir_ / "p.txt";
+  try {
+    write_file_atomic(path, [](std::ostream&) { throw Error("pose 3 is not finite"); });
+    FAIL() << "no exception";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), path.string() + ": pose 3 is not finite");
+  }
+  EXPECT_EQ(files_in_dir(), 0U);
+}
+
+TEST_F(AtomicFileTest, FailsInMissingFolder) {
+  const auto path = dir_ / "no" / "such" / "dir.txt";
+  try {
+    write_file_atomic(path, std::string_view("x"));
+    FAIL() << "no exception";
+  } catch (const Error& e) {
+    EXPECT_TRUE(contains(e.what(), path.string()));
+    EXPECT_TRUE(contains(e.what(), "No such file or directory"));
+  }
+}
+
+}  // namespace
+}  // namespace hmap
