@@ -1,1 +1,44 @@
-int main() { return 0; }
+// hmap: maps a robot can plan on, from 3D point clouds.
+
+#include <CLI/CLI.hpp>
+
+#include <cstdio>
+#include <exception>
+
+#include "cli_common.hpp"
+#include "hmap/core/error.hpp"
+#include "hmap/io/config.hpp"
+
+int main(int argc, char** argv) {
+  CLI::App app{"hmap: hybrid height-voxel maps (HMAP) from 3D point clouds"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", std::string("hmap 0.1.0"));
+  hmap::cli::add_map_command(app);
+  hmap::cli::add_info_command(app);
+  hmap::cli::add_export_command(app);
+  hmap::cli::add_bench_command(app);
+  hmap::cli::add_render_command(app);
+  auto* params_cmd = app.add_subcommand("params", "Print every parameter of a preset with its unit");
+  auto preset = std::make_shared<std::string>("outdoor");
+  params_cmd->add_option("--preset", *preset, "indoor or outdoor")->capture_default_str();
+  params_cmd->callback([preset] { std::fputs(hmap::params_to_yaml(hmap::preset(*preset)).c_str(), stdout); });
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    std::fprintf(stderr, "hmap: error: %s (see hmap --help)\n", e.what());
+    return 2;
+  } catch (const std::bad_alloc&) {
+    std::fprintf(stderr, "hmap: error: out of memory\n");
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "hmap: error: %s\n", e.what());
+    return 2;
+  }
+  return 0;
+}

@@ -16,6 +16,10 @@ void FreeCell::add(float lo, float hi, float rays, float join_gap) {
   for (std::uint32_t k = 0; k < n; ++k) {
     FreeHVoxel& iv = intervals[k];
     if (lo <= iv.z_max && hi >= iv.z_min) {
+      if (hit == n && lo >= iv.z_min && hi <= iv.z_max) {  // inside one: it overlaps no other
+        iv.rays += rays;
+        return;
+      }
       if (hit == n) {
         iv.z_min = std::min(iv.z_min, lo);
         iv.z_max = std::max(iv.z_max, hi);

@@ -21,9 +21,8 @@ Eigen::Vector2d HMap::cell_center(const CellKey& key) const {
 }
 
 const Column* HMap::column(const CellKey& key) const {
-  const auto it = tiles_.find(tile_of(key));
-  if (it == tiles_.end()) return nullptr;
-  return &it->second->cells[local_index(key)];
+  const Tile* tile = tiles_.find(tile_of(key));
+  return tile != nullptr ? &tile->cells[local_index(key)] : nullptr;
 }
 
 const Column* HMap::column(double x, double y) const {
@@ -32,15 +31,12 @@ const Column* HMap::column(double x, double y) const {
 }
 
 Column* HMap::find_column(const CellKey& key) {
-  const auto it = tiles_.find(tile_of(key));
-  if (it == tiles_.end()) return nullptr;
-  return &it->second->cells[local_index(key)];
+  Tile* tile = tiles_.find(tile_of(key));
+  return tile != nullptr ? &tile->cells[local_index(key)] : nullptr;
 }
 
 Column& HMap::column_for_update(const CellKey& key) {
-  auto& tile = tiles_[tile_of(key)];
-  if (!tile) tile = std::make_unique<Tile>();
-  return tile->cells[local_index(key)];
+  return tiles_.find_or_create(tile_of(key)).cells[local_index(key)];
 }
 
 const HVoxel* HMap::hvoxel_at(double x, double y, double z) const {
@@ -49,16 +45,16 @@ const HVoxel* HMap::hvoxel_at(double x, double y, double z) const {
 }
 
 bool HMap::empty() const {
-  for (const auto& [key, tile] : tiles_) {
-    for (const Column& c : tile->cells)
-      if (!c.empty()) return false;
-  }
-  return true;
+  bool empty = true;
+  tiles_.for_each([&](const CellKey&, const Tile& tile) {
+    for (const Column& c : tile.cells) empty = empty && c.empty();
+  });
+  return empty;
 }
 
 void HMap::prune_empty_tiles() {
-  std::erase_if(tiles_, [](const auto& entry) {
-    for (const Column& c : entry.second->cells)
+  tiles_.erase_if([](const Tile& tile) {
+    for (const Column& c : tile.cells)
       if (!c.empty()) return false;
     return true;
   });
@@ -67,9 +63,7 @@ void HMap::prune_empty_tiles() {
 MapStats HMap::stats() const {
   MapStats s;
   s.tiles = tiles_.size();
-  // Tile index: one bucket pointer per bucket, one node (key, pointer, next, hash) per tile.
-  s.memory_bytes = tiles_.bucket_count() * sizeof(void*) +
-                   tiles_.size() * (sizeof(Tile) + sizeof(CellKey) + 3 * sizeof(void*));
+  s.memory_bytes = tiles_.table_bytes() + tiles_.size() * sizeof(Tile);
   for_each_column([&](const CellKey& key, const Column& c) {
     ++s.cells;
     s.hvoxels += c.size();

@@ -7,11 +7,11 @@
 #include <array>
 #include <memory>
 #include <optional>
-#include <unordered_map>
 
 #include "hmap/core/params.hpp"
 #include "hmap/core/types.hpp"
 #include "hmap/maps/column.hpp"
+#include "hmap/maps/tile_index.hpp"
 
 namespace hmap {
 
@@ -67,18 +67,18 @@ class HMap {
   /// Calls f(CellKey, const Column&) for every non-empty column, in no particular order.
   template <typename F>
   void for_each_column(F&& f) const {
-    for (const auto& [tile_key, tile] : tiles_) {
+    tiles_.for_each([&](const CellKey& tile_key, const Tile& tile) {
       for (int local = 0; local < kTileCells; ++local) {
-        const Column& c = tile->cells[local];
+        const Column& c = tile.cells[local];
         if (!c.empty()) f(key_in_tile(tile_key, local), c);
       }
-    }
+    });
   }
   /// Calls f(tile_key, const Tile&) for every allocated tile; tile (a, b) holds cells
   /// [a·kTileSize, (a+1)·kTileSize) × [b·kTileSize, (b+1)·kTileSize).
   template <typename F>
   void for_each_tile(F&& f) const {
-    for (const auto& [tile_key, tile] : tiles_) f(tile_key, *tile);
+    tiles_.for_each(f);
   }
   /// Removes tiles whose columns are all empty.
   void prune_empty_tiles();
@@ -95,7 +95,7 @@ class HMap {
 
  private:
   Params params_;
-  std::unordered_map<CellKey, std::unique_ptr<Tile>, CellKeyHash> tiles_;
+  TileIndex<Tile> tiles_;
 };
 
 /// The occupied space as points: each HVoxel sampled at its cell centre from z_min to z_max

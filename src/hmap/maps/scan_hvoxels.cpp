@@ -1,5 +1,8 @@
 #include "hmap/maps/scan_hvoxels.hpp"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <cmath>
 
@@ -28,8 +31,6 @@ void ScanHVoxelizer::index_points(std::span<const Point3f> points_sensor, const 
   out.hvoxels.clear();
   out.points_in = points_sensor.size();
   out.points_kept = out.dropped_non_finite = out.dropped_range = 0;
-  point_cell_.clear();
-  point_z_.clear();
 
   const double cell = params_.cell_size;
   const Eigen::Vector3d origin = T_map_sensor.translation();
@@ -44,35 +45,55 @@ void ScanHVoxelizer::index_points(std::span<const Point3f> points_sensor, const 
   const auto min_r2 = static_cast<float>(params_.min_range * params_.min_range);
   const auto max_r2 = static_cast<float>(params_.max_range * params_.max_range);
 
-  for (const Point3f& p_sensor : points_sensor) {
-    if (!p_sensor.allFinite()) {
-      ++out.dropped_non_finite;
+  // Convert and bin in parallel: each point gets its window cell (or a drop code) and its height.
+  constexpr std::uint32_t kNonFinite = 0xFFFFFFFF;
+  constexpr std::uint32_t kOutOfRange = 0xFFFFFFFE;
+  const std::size_t n = points_sensor.size();
+  point_window_.resize(n);
+  point_z_.resize(n);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 8192), [&](const auto& range) {
+    for (std::size_t k = range.begin(); k != range.end(); ++k) {
+      const Point3f& p_sensor = points_sensor[k];
+      if (!p_sensor.allFinite()) {
+        point_window_[k] = kNonFinite;
+        continue;
+      }
+      const float r2 = p_sensor.squaredNorm();
+      if (r2 < min_r2 || r2 > max_r2) {
+        point_window_[k] = kOutOfRange;
+        continue;
+      }
+      // 2D indexing in the gravity-aligned map frame (convertToMapIndex, withinMapBounds).
+      const Eigen::Vector3d p_map = R * p_sensor.cast<double>() + origin;
+      const CellKey key{static_cast<std::int32_t>(std::floor(p_map.x() / cell)),
+                        static_cast<std::int32_t>(std::floor(p_map.y() / cell))};
+      // Outside the window only through float rounding at the range limit.
+      point_window_[k] = window_.contains(key) ? static_cast<std::uint32_t>(window_.index(key)) : kOutOfRange;
+      point_z_[k] = static_cast<float>(p_map.z());
+    }
+  });
+  // Number the cells in order of first appearance (serial: it builds the cell list).
+  point_cell_.resize(n);
+  std::size_t kept = 0;
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::uint32_t w = point_window_[k];
+    if (w >= kOutOfRange) {
+      ++(w == kNonFinite ? out.dropped_non_finite : out.dropped_range);
       continue;
     }
-    const float r2 = p_sensor.squaredNorm();
-    if (r2 < min_r2 || r2 > max_r2) {
-      ++out.dropped_range;
-      continue;
-    }
-    // 2D indexing in the gravity-aligned map frame (convertToMapIndex, withinMapBounds).
-    const Eigen::Vector3d p_map = R * p_sensor.cast<double>() + origin;
-    const CellKey key{static_cast<std::int32_t>(std::floor(p_map.x() / cell)),
-                      static_cast<std::int32_t>(std::floor(p_map.y() / cell))};
-    if (!window_.contains(key)) {  // only float rounding at the range limit can get here
-      ++out.dropped_range;
-      continue;
-    }
-    const std::size_t w = window_.index(key);
     std::uint32_t& slot = cell_of_window_[w];
     if (slot == 0) {
-      out.cells.push_back({key, 0, 0});
+      out.cells.push_back({window_.key_of(w), 0, 0});
       slot = static_cast<std::uint32_t>(out.cells.size());
       used_windows_.push_back(w);
     }
-    point_cell_.push_back(slot - 1);
-    point_z_.push_back(static_cast<float>(p_map.z()));
+    point_cell_[kept] = slot - 1;
+    point_z_[kept] = point_z_[k];
+    ++kept;
   }
-  out.points_kept = point_z_.size();
+  point_cell_.resize(kept);
+  point_z_.resize(kept);
+  out.points_kept = kept;
 }
 
 void ScanHVoxelizer::cluster_heights(ScanHVoxels& out) {
@@ -82,43 +103,56 @@ void ScanHVoxelizer::cluster_heights(ScanHVoxels& out) {
   for (std::uint32_t c : point_cell_) ++cell_offset_[c + 1];
   for (std::size_t c = 0; c < n_cells; ++c) cell_offset_[c + 1] += cell_offset_[c];
   sorted_z_.resize(point_z_.size());
-  {
-    // cell_offset_[c] is used as the write cursor of cell c, then restored.
-    for (std::size_t k = 0; k < point_z_.size(); ++k) {
-      sorted_z_[cell_offset_[point_cell_[k]]++] = point_z_[k];
-    }
-    for (std::size_t c = n_cells; c > 0; --c) cell_offset_[c] = cell_offset_[c - 1];
-    cell_offset_[0] = 0;
-  }
+  // cell_offset_[c] is used as the write cursor of cell c, then restored.
+  for (std::size_t k = 0; k < point_z_.size(); ++k) sorted_z_[cell_offset_[point_cell_[k]]++] = point_z_[k];
+  for (std::size_t c = n_cells; c > 0; --c) cell_offset_[c] = cell_offset_[c - 1];
+  cell_offset_[0] = 0;
 
+  // HeightClustering, cells in parallel: sort each slice and count its clusters, then place the
+  // HVoxels of every cell at its offset.
   const auto gap = static_cast<float>(params_.point_distance_threshold);
-  for (std::size_t c = 0; c < n_cells; ++c) {
-    float* z = sorted_z_.data() + cell_offset_[c];
-    float* z_end = sorted_z_.data() + cell_offset_[c + 1];
-    if (z_end - z <= 16) {  // most cells hold a few points: insertion sort wins
-      for (float* a = z + 1; a < z_end; ++a) {
-        const float value = *a;
-        float* b = a;
-        for (; b > z && *(b - 1) > value; --b) *b = *(b - 1);
-        *b = value;
+  cluster_count_.resize(n_cells + 1);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n_cells, 1024), [&](const auto& range) {
+    for (std::size_t c = range.begin(); c != range.end(); ++c) {
+      float* z = sorted_z_.data() + cell_offset_[c];
+      float* z_end = sorted_z_.data() + cell_offset_[c + 1];
+      if (z_end - z <= 16) {  // most cells hold a few points: insertion sort wins
+        for (float* a = z + 1; a < z_end; ++a) {
+          const float value = *a;
+          float* b = a;
+          for (; b > z && *(b - 1) > value; --b) *b = *(b - 1);
+          *b = value;
+        }
+      } else {
+        std::sort(z, z_end);
       }
-    } else {
-      std::sort(z, z_end);
+      std::uint32_t clusters = 1;  // a new segment starts where the gap exceeds the threshold
+      for (const float* it = z + 1; it < z_end; ++it) clusters += *it - *(it - 1) > gap ? 1U : 0U;
+      cluster_count_[c + 1] = clusters;
     }
-    ScanCell& cell = out.cells[c];
-    cell.first = static_cast<std::uint32_t>(out.hvoxels.size());
-    // HeightClustering: a new segment starts where the gap exceeds the threshold.
-    float* segment = z;
-    for (float* it = z + 1; it <= z_end; ++it) {
-      if (it == z_end || *it - *(it - 1) > gap) {
-        HVoxel v{*segment, *(it - 1), static_cast<float>(it - segment), 0.0F};
-        update_density(v, params_);  // eq. (1)
-        out.hvoxels.push_back(v);
-        segment = it;
+  });
+  cluster_count_[0] = 0;
+  for (std::size_t c = 0; c < n_cells; ++c) cluster_count_[c + 1] += cluster_count_[c];
+  out.hvoxels.resize(cluster_count_[n_cells]);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n_cells, 1024), [&](const auto& range) {
+    for (std::size_t c = range.begin(); c != range.end(); ++c) {
+      const float* z = sorted_z_.data() + cell_offset_[c];
+      const float* z_end = sorted_z_.data() + cell_offset_[c + 1];
+      ScanCell& cell = out.cells[c];
+      cell.first = cluster_count_[c];
+      cell.count = cluster_count_[c + 1] - cluster_count_[c];
+      HVoxel* v_out = out.hvoxels.data() + cell.first;
+      const float* segment = z;
+      for (const float* it = z + 1; it <= z_end; ++it) {
+        if (it == z_end || *it - *(it - 1) > gap) {
+          HVoxel v{*segment, *(it - 1), static_cast<float>(it - segment), 0.0F};
+          update_density(v, params_);  // eq. (1)
+          *v_out++ = v;
+          segment = it;
+        }
       }
     }
-    cell.count = static_cast<std::uint32_t>(out.hvoxels.size()) - cell.first;
-  }
+  });
 }
 
 }  // namespace hmap

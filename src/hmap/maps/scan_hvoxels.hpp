@@ -28,6 +28,11 @@ struct ScanWindow {
     return static_cast<std::size_t>(k.i - center.i + half) * width +
            static_cast<std::size_t>(k.j - center.j + half);
   }
+  /// The cell of a dense index.
+  [[nodiscard]] CellKey key_of(std::size_t index) const {
+    return {static_cast<std::int32_t>(index / static_cast<std::size_t>(width)) - half + center.i,
+            static_cast<std::int32_t>(index % static_cast<std::size_t>(width)) - half + center.j};
+  }
 };
 
 /// One cell of R: its HVoxels are hvoxels[first, first + count), sorted by height.
@@ -74,10 +79,12 @@ class ScanHVoxelizer {
   ScanWindow window_;
   std::vector<std::uint32_t> cell_of_window_;  // dense over the window
   std::vector<std::size_t> used_windows_;      // window cells set in the last build, to reset
+  std::vector<std::uint32_t> point_window_;    // per point: its window cell, or a drop code
   std::vector<std::uint32_t> point_cell_;      // per kept point: its scan cell
   std::vector<float> point_z_;                 // per kept point: map z
   std::vector<std::uint32_t> cell_offset_;     // counting sort of heights by cell
   std::vector<float> sorted_z_;
+  std::vector<std::uint32_t> cluster_count_;   // prefix sums of the clusters per cell
 };
 
 }  // namespace hmap

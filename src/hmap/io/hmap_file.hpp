@@ -1,0 +1,50 @@
+#pragma once
+// The native `.hmap` map file: the parameters a map was built with and every HVoxel, exact.
+//
+// Layout, version 1. Integers are little-endian; offsets in bytes, J = JSON length, C = compressed
+// payload length; the whole file is 48 + J + C bytes.
+//
+//   offset       size  field
+//   0            8     magic 89 48 4D 41 50 0D 0A 1A ("\x89HMAP\r\n\x1a": the high bit, CR-LF and
+//                      ^Z catch transfers that strip bits or convert line ends, as in PNG)
+//   8            4     uint32 format version = 1
+//   12           4     uint32 flags = 0 (no flag is defined; readers reject any other value)
+//   16           8     uint64 J
+//   24           J     params JSON, UTF-8: one object holding "format": "hmap", "tile_size": 16 and
+//                      every parameter of hmap::param_refs by dotted name as a number
+//                      ({"map.cell_size": 0.25, ...}); every parameter must be present
+//   24 + J       8     uint64 U, uncompressed payload size (at most 32 GiB)
+//   32 + J       8     uint64 C
+//   40 + J       C     the payload, one zstd frame
+//   40 + J + C   8     uint64 XXH64 (seed 0) of bytes [0, 40 + J + C)
+//
+// Payload (uncompressed, U bytes):
+//   uint64 tile count T
+//   T tiles, in increasing (tile_i, tile_j) order, none without HVoxels; each:
+//     int32 tile_i, int32 tile_j      tile (a, b) holds cells [16a, 16a + 16) × [16b, 16b + 16)
+//     256 cells in HMap::local_index order (row-major: local = 16 · (i mod 16) + (j mod 16)), each:
+//       varint n                      LEB128, unsigned, shortest encoding: HVoxels in the cell
+//       n × 4 float32                 z_min, z_max, count, density; sorted by height, disjoint
+//
+// The writer's output is a function of the map alone: identical maps give identical bytes.
+// The reader checks the checksum before decompressing, and decodes the payload a zstd block at a
+// time: memory follows the bytes really decoded, never U. It does not bound the compression
+// ratio, since uniform maps legitimately compress beyond 1000:1.
+
+#include <filesystem>
+
+#include "hmap/maps/hmap.hpp"
+
+namespace hmap {
+
+/// Writes `map` to `path` in the `.hmap` format, atomically (readers see the old file or the
+/// complete new one). Throws hmap::Error when the file cannot be written.
+void save_hmap(const std::filesystem::path& path, const HMap& map);
+
+/// Reads a `.hmap` file. Every field is checked before it is used and nothing is allocated from a
+/// size the file claims before the claim is verified: a damaged or hostile file gives
+/// hmap::InputError naming the file, the byte ("byte N", or "payload byte N" inside the
+/// decompressed payload) and what was expected.
+[[nodiscard]] HMap load_hmap(const std::filesystem::path& path);
+
+}  // namespace hmap

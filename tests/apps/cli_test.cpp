@@ -1,0 +1,171 @@
+// The hmap command line end to end: exit codes, one-line errors, outputs that load.
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <array>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <sys/wait.h>
+
+#include "common/test_data.hpp"
+#include "hmap/io/hmap_file.hpp"
+
+namespace hmap {
+namespace {
+
+struct CmdResult {
+  int code = -1;
+  std::string out;  // stdout and stderr together
+};
+
+std::string hmap_bin() {
+  const char* bin = std::getenv("HMAP_BIN");
+  return bin != nullptr && *bin != '\0' ? bin : HMAP_BIN_PATH;
+}
+
+CmdResult run(const std::string& args) {
+  CmdResult r;
+  const std::string cmd = hmap_bin() + " " + args + " 2>&1";
+  FILE* pipe = ::popen(cmd.c_str(), "r");
+  if (pipe == nullptr) return r;
+  std::array<char, 4096> buf{};
+  std::size_t n = 0;
+  while ((n = std::fread(buf.data(), 1, buf.size(), pipe)) > 0) r.out.append(buf.data(), n);
+  const int status = ::pclose(pipe);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+std::size_t lines(const std::string& s) {
+  std::size_t n = 0;
+  for (char c : s) n += c == '\n';
+  return n;
+}
+
+class CliTest : public ::testing::Test {
+ protected:
+  void SetUp() override { dir_ = test::temp_dir("cli"); }
+  void TearDown() override { std::filesystem::remove_all(dir_); }
+  std::string path(const std::string& name) const { return (dir_ / name).string(); }
+  std::filesystem::path dir_;
+};
+
+TEST_F(CliTest, NoArgumentsIsAnError) {
+  const CmdResult r = run("");
+  EXPECT_EQ(r.code, 2);
+}
+
+TEST_F(CliTest, MapWithoutPosesPointsToSlam) {
+  std::ofstream(path("a.xyz")) << "1 2 3\n4 5 6\n";
+  const CmdResult r = run("map " + path("a.xyz") + " --out " + path("m.hmap"));
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("hmap slam"), std::string::npos) << r.out;
+  EXPECT_EQ(lines(r.out), 1U) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(path("m.hmap")));
+}
+
+TEST_F(CliTest, MissingScanFileIsNamed) {
+  std::ofstream(path("p.txt")) << "1 0 0 0 0 1 0 0 0 0 1 0\n";
+  const CmdResult r = run("map " + path("nope.pcd") + " --poses " + path("p.txt") + " --out " + path("m.hmap"));
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("nope.pcd"), std::string::npos) << r.out;
+  EXPECT_EQ(lines(r.out), 1U) << r.out;
+}
+
+TEST_F(CliTest, PoseCountMismatchNamesBothCounts) {
+  std::ofstream(path("a.xyz")) << "1 2 3\n";
+  std::ofstream(path("b.xyz")) << "1 2 3\n";
+  std::ofstream(path("p.txt")) << "1 0 0 0 0 1 0 0 0 0 1 0\n";
+  const CmdResult r = run("map " + path("a.xyz") + " " + path("b.xyz") + " --poses " + path("p.txt") + " --out " + path("m.hmap"));
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("p.txt"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("1 poses for 2 scans"), std::string::npos) << r.out;
+}
+
+TEST_F(CliTest, NegativeCellSizeIsRefused) {
+  std::ofstream(path("a.xyz")) << "1 2 3\n";
+  std::ofstream(path("p.txt")) << "1 0 0 0 0 1 0 0 0 0 1 0\n";
+  const CmdResult r = run("map " + path("a.xyz") + " --poses " + path("p.txt") + " --cell -0.1 --out " + path("m.hmap"));
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("map.cell_size"), std::string::npos) << r.out;
+  EXPECT_EQ(lines(r.out), 1U) << r.out;
+}
+
+TEST_F(CliTest, AbsurdRangeIsRefused) {
+  std::ofstream(path("a.xyz")) << "1 2 3\n";
+  std::ofstream(path("p.txt")) << "1 0 0 0 0 1 0 0 0 0 1 0\n";
+  const CmdResult r = run("map " + path("a.xyz") + " --poses " + path("p.txt") + " --max-range 1e9 --out " + path("m.hmap"));
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("map.max_range"), std::string::npos) << r.out;
+}
+
+TEST_F(CliTest, UnknownConfigKeyNamesFileAndLine) {
+  std::ofstream(path("c.yaml")) << "map:\n  cell_size: 0.1\n  cel_size: 0.2\n";
+  std::ofstream(path("a.xyz")) << "1 2 3\n";
+  std::ofstream(path("p.txt")) << "1 0 0 0 0 1 0 0 0 0 1 0\n";
+  const CmdResult r = run("map " + path("a.xyz") + " --poses " + path("p.txt") + " --config " + path("c.yaml") + " --out " + path("m.hmap"));
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("c.yaml: line 3"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("map.cel_size"), std::string::npos) << r.out;
+}
+
+TEST_F(CliTest, CorruptMapIsRejected) {
+  std::ofstream(path("bad.hmap")) << "not a map at all";
+  const CmdResult r = run("info " + path("bad.hmap"));
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("bad.hmap"), std::string::npos) << r.out;
+  EXPECT_EQ(lines(r.out), 1U) << r.out;
+}
+
+TEST_F(CliTest, MapInfoExportOnRealScans) {
+  HMAP_REQUIRE_DATA("balm_os0");
+  const std::string seq = (test::data_dir() / "balm_os0").string();
+  const CmdResult m = run("map --kitti " + seq + " --scans 4 --cell 0.2 --out " + path("m.hmap"));
+  ASSERT_EQ(m.code, 0) << m.out;
+  EXPECT_NE(m.out.find("Mapped 4 scans"), std::string::npos) << m.out;
+  const HMap loaded = load_hmap(path("m.hmap"));
+  EXPECT_GT(loaded.stats().hvoxels, 1000U);
+
+  const CmdResult info = run("info --json " + path("m.hmap"));
+  ASSERT_EQ(info.code, 0) << info.out;
+  const auto j = nlohmann::json::parse(info.out);
+  EXPECT_EQ(j.at("cells").get<std::size_t>(), loaded.stats().cells);
+  EXPECT_EQ(j.at("hvoxels").get<std::size_t>(), loaded.stats().hvoxels);
+  EXPECT_GT(j.at("memory_bytes").get<std::size_t>(), 0U);
+  EXPECT_DOUBLE_EQ(j.at("parameters").at("map.cell_size").get<double>(), 0.2);
+
+  const CmdResult boxes = run("export " + path("m.hmap") + " --ply " + path("boxes.ply"));
+  ASSERT_EQ(boxes.code, 0) << boxes.out;
+  const CmdResult pts = run("export " + path("m.hmap") + " --ply " + path("pts.ply") + " --points");
+  ASSERT_EQ(pts.code, 0) << pts.out;
+  std::ifstream ply(path("boxes.ply"));
+  std::string first;
+  std::getline(ply, first);
+  EXPECT_EQ(first, "ply");
+}
+
+TEST_F(CliTest, BenchPrintsOneJsonObjectPerSystem) {
+  HMAP_REQUIRE_DATA("kitti_hdl64_seq16");
+  const std::string seq = (test::data_dir() / "kitti_hdl64_seq16").string();
+  const CmdResult r = run("bench --kitti " + seq + " --scans 1 --cell 0.4 --max-range 30 --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  std::istringstream in(r.out);
+  std::string line;
+  std::vector<std::string> systems;
+  while (std::getline(in, line)) {
+    const auto j = nlohmann::json::parse(line);
+    systems.push_back(j.at("system").get<std::string>());
+    EXPECT_EQ(j.at("scans").get<int>(), 1);
+    EXPECT_GT(j.at("points").get<double>(), 100000.0);
+    EXPECT_GT(j.at("ms_per_scan").get<double>(), 0.0);
+    EXPECT_GT(j.at("points_per_s").get<double>(), 0.0);
+    EXPECT_GT(j.at("memory_bytes").get<double>(), 0.0);
+  }
+  EXPECT_EQ(systems, (std::vector<std::string>{"hmap", "octomap"}));
+}
+
+}  // namespace
+}  // namespace hmap
