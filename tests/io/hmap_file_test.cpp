@@ -154,7 +154,7 @@ nlohmann::ordered_json params_json(const Params& params) {
   Params copy = params;
   nlohmann::ordered_json j;
   j["format"] = "hmap";
-  j["tile_size"] = 16;
+  j["tile_size"] = HMap::kTileSize;
   for (const ParamRef& r : param_refs(copy)) j[r.name] = r.get();
   return j;
 }
@@ -168,7 +168,7 @@ FileParts parts_with_payload(const std::string& payload) {
 }
 
 const std::vector<TileSpec> kValidTiles = {
-    {-1, 0, {{0, {{0.0F, 0.5F, 10.0F, 0.9F}, {1.0F, 1.0F, 1.0F, 0.1F}}}, {255, {{-2.0F, -1.0F, 3.0F, 0.5F}}}}},
+    {-1, 0, {{0, {{0.0F, 0.5F, 10.0F, 0.9F}, {1.0F, 1.0F, 1.0F, 0.1F}}}, {HMap::kTileCells - 1, {{-2.0F, -1.0F, 3.0F, 0.5F}}}}},
     {0, -3, {{17, {{5.0F, 6.0F, 7.0F, 0.25F}}}}},
 };
 
@@ -357,7 +357,7 @@ TEST_F(HMapFileTest, LayoutIsAsDocumented) {
   const std::uint64_t json_size = get_u64(f, 16);
   const auto json = nlohmann::json::parse(f.substr(24, json_size));
   EXPECT_EQ(json.at("format"), "hmap");
-  EXPECT_EQ(json.at("tile_size"), 16);
+  EXPECT_EQ(json.at("tile_size"), HMap::kTileSize);
   EXPECT_EQ(json.at("map.cell_size").get<double>(), 0.1);
   EXPECT_EQ(json.at("ground.seed").get<double>(), 12345.0);
   Params p;
@@ -366,9 +366,18 @@ TEST_F(HMapFileTest, LayoutIsAsDocumented) {
   const std::uint64_t compressed_size = get_u64(f, 32 + json_size);
   EXPECT_EQ(f.size(), 48 + json_size + compressed_size);
   EXPECT_EQ(get_u64(f, f.size() - 8), XXH64(f.data(), f.size() - 8, 0));
-  // Payload size: 8 + per stored tile 8 + 256 counts (1 byte each here, 40 fits) + 16 per HVoxel.
-  const MapStats s = map.stats();
-  EXPECT_EQ(payload_size, 8 + (s.tiles - 1) * (8 + 256) + 16 * s.hvoxels);
+  // Payload size: 8 + per stored tile (8 + one varint count per cell) + 16 per HVoxel.
+  std::uint64_t expected = 8;
+  map.for_each_tile([&](const CellKey&, const HMap::Tile& tile) {
+    std::uint64_t tile_bytes = 8;
+    bool stored = false;
+    for (const Column& c : tile.cells) {
+      tile_bytes += (c.size() < 128 ? 1 : 2) + 16 * c.size();
+      stored = stored || !c.empty();
+    }
+    if (stored) expected += tile_bytes;
+  });
+  EXPECT_EQ(payload_size, expected);
 }
 
 TEST_F(HMapFileTest, HandCraftedFileLoads) {
@@ -381,8 +390,8 @@ TEST_F(HMapFileTest, HandCraftedFileLoads) {
   ASSERT_NE(c, nullptr);
   ASSERT_EQ(c->size(), 2U);
   EXPECT_EQ((*c)[1], (HVoxel{1.0F, 1.0F, 1.0F, 0.1F}));
-  EXPECT_EQ(map.column({-1, 15})->hvoxels()[0].z_min, -2.0F);  // local 255 of tile (-1, 0)
-  EXPECT_EQ(map.column({1, -47})->hvoxels()[0].z_max, 6.0F);   // local 17 of tile (0, -3)
+  EXPECT_EQ(map.column(HMap::key_in_tile({-1, 0}, HMap::kTileCells - 1))->hvoxels()[0].z_min, -2.0F);
+  EXPECT_EQ(map.column(HMap::key_in_tile({0, -3}, 17))->hvoxels()[0].z_max, 6.0F);
 
   // A frame without a content size, several blocks, also loads.
   FileParts p = parts_with_payload(payload_of(kValidTiles));
@@ -402,8 +411,8 @@ TEST_F(HMapFileTest, HandCraftedFileLoads) {
 // rather than by rejecting high compression ratios: files like this one must load.
 TEST_F(HMapFileTest, HighlyCompressibleMapRoundTrips) {
   HMap map(test_params());
-  for (std::int32_t i = 0; i < 20 * HMap::kTileSize; ++i) {
-    for (std::int32_t j = 0; j < 20 * HMap::kTileSize; ++j) {
+  for (std::int32_t i = 0; i < 320; ++i) {
+    for (std::int32_t j = 0; j < 320; ++j) {
       map.column_for_update({i, j}).push_back({0.0F, 0.5F, 10.0F, 0.9F});
     }
   }
@@ -552,7 +561,7 @@ TEST_F(HMapFileTest, BadParamsAreRejected) {
                        "ground.seed"));
   EXPECT_TRUE(rejected(path, with_json(edited([](auto& j) { j["map.extra"] = 1; })),
                        "unknown key \"map.extra\""));
-  EXPECT_TRUE(rejected(path, with_json("{\"format\": \"hmap\", \"tile_size\": 16, \"map.cell_size\": 1e999}"),
+  EXPECT_TRUE(rejected(path, with_json("{\"format\": \"hmap\", \"tile_size\": " + std::to_string(HMap::kTileSize) + ", \"map.cell_size\": 1e999}"),
                        "params JSON"));
 }
 
@@ -658,13 +667,14 @@ TEST_F(HMapFileTest, BadPayloadsAreRejected) {
   EXPECT_TRUE(rejected(path, file_of({one, before}), "increasing key order"));
   EXPECT_TRUE(rejected(path, file_of({{0, 1, {}}, {0, 2, {{0, {{0.0F, 1.0F, 1.0F, 0.5F}, {2.0F, 3.0F, 1.0F, 0.5F}}}}}}),
                        "holds no HVoxel"));
-  EXPECT_TRUE(rejected(path, file_of({{1 << 26, 0, {{0, {{0.0F, 1.0F, 1.0F, 0.5F}}}}}}), "tile keys"));
-  EXPECT_TRUE(rejected(path, file_of({{0, -(1 << 26) - 1, {{0, {{0.0F, 1.0F, 1.0F, 0.5F}}}}}}), "tile keys"));
+  constexpr std::int32_t kLimit = std::int32_t{1} << (30 - HMap::kTileBits);  // keys stay within ±2^30
+  EXPECT_TRUE(rejected(path, file_of({{kLimit, 0, {{0, {{0.0F, 1.0F, 1.0F, 0.5F}}}}}}), "tile keys"));
+  EXPECT_TRUE(rejected(path, file_of({{0, -kLimit - 1, {{0, {{0.0F, 1.0F, 1.0F, 0.5F}}}}}}), "tile keys"));
   EXPECT_TRUE(rejected(path, file_of({{std::numeric_limits<std::int32_t>::min(), 0, {{0, {{0.0F, 1.0F, 1.0F, 0.5F}}}}}}),
                        "tile keys"));
   // The extreme keys themselves are fine.
-  write_bytes(path, file_of({{-(1 << 26), (1 << 26) - 1, {{255, {{0.0F, 1.0F, 1.0F, 0.5F}}}}}}));
-  EXPECT_NE(load_hmap(path).column({-(1 << 30) + 15, (1 << 30) - 1}), nullptr);
+  write_bytes(path, file_of({{-kLimit, kLimit - 1, {{HMap::kTileCells - 1, {{0.0F, 1.0F, 1.0F, 0.5F}}}}}}));
+  EXPECT_NE(load_hmap(path).column(HMap::key_in_tile({-kLimit, kLimit - 1}, HMap::kTileCells - 1)), nullptr);
 
   // Trailing bytes inside the payload, and after the zstd frame.
   const std::string valid = payload_of(kValidTiles);

@@ -1,76 +1,92 @@
 #include "hmap/maps/column.hpp"
 
 #include <algorithm>
-#include <cstring>
 #include <utility>
 
 namespace hmap {
 
 Column::Column(const Column& other) {
-  if (other.size_ > 1) grow(other.size_);
-  std::copy(other.begin(), other.end(), data());
-  size_ = other.size_;
+  const std::size_t n = other.size();
+  if (n == 1) {
+    storage_.inline_hvoxel = other[0];
+  } else if (n > 1) {
+    auto* block = new HVoxel[capacity_for(n)];
+    std::copy(other.begin(), other.end(), block);
+    storage_.heap = {kHeapTag, static_cast<std::uint32_t>(n), block};
+  }
 }
 
-Column::Column(Column&& other) noexcept
-    : size_(other.size_), capacity_(other.capacity_), storage_(other.storage_) {
-  other.size_ = 0;
-  other.capacity_ = 1;
-  other.storage_.heap = nullptr;
-}
+Column::Column(Column&& other) noexcept : storage_(other.storage_) { other.storage_.heap = {kEmptyTag, 0, nullptr}; }
 
 Column& Column::operator=(Column other) noexcept {
-  std::swap(size_, other.size_);
-  std::swap(capacity_, other.capacity_);
   std::swap(storage_, other.storage_);
   return *this;
 }
 
 Column::~Column() {
-  if (capacity_ > 1) delete[] storage_.heap;
+  if (on_heap()) delete[] storage_.heap.data;
 }
 
-std::size_t Column::heap_bytes() const { return capacity_ > 1 ? capacity_ * sizeof(HVoxel) : 0; }
+std::size_t Column::heap_bytes() const {
+  // The block, and the allocator's own header (16 bytes with glibc).
+  return on_heap() ? capacity_for(storage_.heap.size) * sizeof(HVoxel) + 16 : 0;
+}
 
-void Column::grow(std::uint32_t min_capacity) {
-  std::uint32_t cap = capacity_ > 1 ? capacity_ : 2;
-  while (cap < min_capacity) cap *= 2;
-  auto* heap = new HVoxel[cap];
-  std::copy(begin(), end(), heap);
-  if (capacity_ > 1) delete[] storage_.heap;
-  storage_.heap = heap;
-  capacity_ = cap;
+void Column::relocate(std::size_t n) {
+  const std::size_t old_size = size();
+  const std::size_t keep = std::min(old_size, n);
+  const bool was_heap = on_heap();
+  HVoxel* old = was_heap ? storage_.heap.data : nullptr;
+  if (n >= 2) {
+    if (was_heap && capacity_for(n) == capacity_for(old_size)) {
+      storage_.heap.size = static_cast<std::uint32_t>(n);
+      return;
+    }
+    auto* block = new HVoxel[capacity_for(n)];
+    std::copy(data(), data() + keep, block);
+    if (was_heap) delete[] old;
+    storage_.heap = {kHeapTag, static_cast<std::uint32_t>(n), block};
+    return;
+  }
+  if (n == 1) {
+    const HVoxel first = data()[0];  // called with size >= 1
+    if (was_heap) delete[] old;
+    storage_.inline_hvoxel = first;
+    return;
+  }
+  if (was_heap) delete[] old;
+  storage_.heap = {kEmptyTag, 0, nullptr};
 }
 
 void Column::insert(std::size_t pos, const HVoxel& v) {
-  if (size_ == capacity_) grow(size_ + 1);
-  HVoxel* d = data();
-  std::copy_backward(d + pos, d + size_, d + size_ + 1);
+  const std::size_t n = size();
+  if (n == 0) {
+    storage_.inline_hvoxel = v;
+    return;
+  }
+  relocate(n + 1);  // n >= 1, so the new size is >= 2: on the heap
+  HVoxel* d = storage_.heap.data;
+  std::copy_backward(d + pos, d + n, d + n + 1);
   d[pos] = v;
-  ++size_;
 }
 
 void Column::erase(std::size_t first, std::size_t last) {
+  const std::size_t n = size();
   HVoxel* d = data();
-  std::copy(d + last, d + size_, d + first);
-  size_ -= static_cast<std::uint32_t>(last - first);
-  if (size_ <= 1 && capacity_ > 1) {  // back to the inline HVoxel: a column rarely regrows
-    const HVoxel keep = size_ == 1 ? d[0] : HVoxel{};
-    delete[] storage_.heap;
-    capacity_ = 1;
-    storage_.inline_hvoxel = keep;
-  }
+  std::copy(d + last, d + n, d + first);
+  relocate(n - (last - first));
 }
 
-void Column::clear() { erase(0, size_); }
+void Column::clear() { relocate(0); }
 
 void Column::merge(const HVoxel& v, float gap, const MapParams& params) {
   // Sorted and disjoint: the HVoxels within `gap` of v form one contiguous run.
+  const std::size_t n = size();
   const std::size_t first = lower_bound(v.z_min - gap);
   std::size_t last = first;
   HVoxel united = v;
   const HVoxel* d = data();
-  while (last < size_ && d[last].z_min <= v.z_max + gap) {
+  while (last < n && d[last].z_min <= v.z_max + gap) {
     united.z_min = std::min(united.z_min, d[last].z_min);
     united.z_max = std::max(united.z_max, d[last].z_max);
     united.count += d[last].count;
@@ -82,12 +98,13 @@ void Column::merge(const HVoxel& v, float gap, const MapParams& params) {
     return;
   }
   data()[first] = united;
-  erase(first + 1, last);
+  if (last > first + 1) erase(first + 1, last);
 }
 
 bool Column::is_valid() const {
   const HVoxel* d = data();
-  for (std::size_t i = 0; i < size_; ++i) {
+  const std::size_t n = size();
+  for (std::size_t i = 0; i < n; ++i) {
     if (!(d[i].z_min <= d[i].z_max)) return false;
     if (i > 0 && !(d[i - 1].z_max < d[i].z_min)) return false;
   }

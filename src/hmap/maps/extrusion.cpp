@@ -6,10 +6,10 @@ namespace hmap {
 
 namespace {
 
-void apply_rules(Column& column, const FreeHVoxel& f, float free_density, const MapParams& p,
-                 ExtrusionCounts& counts) {
+void apply_rules(Column& column, const FreeHVoxel& f, const MapParams& p, ExtrusionCounts& counts) {
   const auto n_th = static_cast<float>(p.density_threshold);
   std::size_t i = column.lower_bound(f.z_min);
+  float free_density = -1.0F;  // eq. (1) for the free HVoxel, computed once it overlaps something
   while (i < column.size() && column[i].z_min <= f.z_max) {
     HVoxel v = column[i];
     const float h = v.height();
@@ -19,6 +19,7 @@ void apply_rules(Column& column, const FreeHVoxel& f, float free_density, const 
       continue;
     }
     const float d = h > 0.0F ? overlap / h : 1.0F;  // overlapped fraction of v's height
+    if (free_density < 0.0F) free_density = hvoxel_density(f.rays, f.z_max - f.z_min, p);
     const bool inside = f.z_min > v.z_min && f.z_max < v.z_max;
     if (inside) {
       if (free_density < v.density) {  // rule 4: subdivide around the free HVoxel
@@ -71,10 +72,7 @@ void apply_rules(Column& column, const FreeHVoxel& f, float free_density, const 
 void extrude(Column& column, std::span<const FreeHVoxel> free, const MapParams& p,
              ExtrusionCounts& counts) {
   if (column.empty() || free.empty()) return;
-  for (const FreeHVoxel& f : free) {
-    const float free_density = hvoxel_density(f.rays, f.z_max - f.z_min, p);
-    apply_rules(column, f, free_density, p, counts);
-  }
+  for (const FreeHVoxel& f : free) apply_rules(column, f, p, counts);
   // After the rules: the HVoxels the free space reached that are now under n_th go.
   const auto n_th = static_cast<float>(p.density_threshold);
   for (std::size_t i = 0; i < column.size();) {

@@ -26,7 +26,7 @@ struct MapStats {
 
 class HMap {
  public:
-  static constexpr int kTileBits = 4;
+  static constexpr int kTileBits = 3;
   static constexpr int kTileSize = 1 << kTileBits;  ///< cells per tile edge
   static constexpr int kTileCells = kTileSize * kTileSize;
   /// Cell keys are kept within ±2^30 so neighbours and tile keys never overflow.
