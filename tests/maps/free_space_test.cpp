@@ -17,6 +17,7 @@ MapParams params() {
   p.max_range = 12.0;
   p.point_distance_threshold = 0.1;
   p.density_threshold = 0.0;  // every HVoxel casts a ray
+  p.free_unite_gap = 0.0;     // exact union, as the brute-force twin computes it
   return p;
 }
 
@@ -28,24 +29,34 @@ struct KeyLess {
 
 TEST(FreeCellTest, UnitesOverlapsAndCountsRays) {
   FreeCell c;
-  c.add(0.0F, 1.0F, 1, 0.1F);
-  c.add(2.0F, 3.0F, 1, 0.1F);
-  c.add(0.5F, 2.5F, 1, 0.1F);  // bridges both
+  c.add(0.0F, 1.0F, 1, 0.0F, 0.1F);
+  c.add(2.0F, 3.0F, 1, 0.0F, 0.1F);
+  c.add(0.5F, 2.5F, 1, 0.0F, 0.1F);  // bridges both
   ASSERT_EQ(c.n, 1U);
   EXPECT_FLOAT_EQ(c.intervals[0].z_min, 0.0F);
   EXPECT_FLOAT_EQ(c.intervals[0].z_max, 3.0F);
   EXPECT_FLOAT_EQ(c.intervals[0].rays, 3.0F);
 }
 
+TEST(FreeCellTest, UnitesBandsWithinTheGap) {
+  FreeCell c;
+  c.add(0.0F, 1.0F, 1, 0.05F, 0.1F);
+  c.add(1.04F, 2.0F, 1, 0.05F, 0.1F);  // 4 cm above: unites
+  c.add(2.06F, 3.0F, 1, 0.05F, 0.1F);  // 6 cm above: stays apart
+  ASSERT_EQ(c.n, 2U);
+  EXPECT_FLOAT_EQ(c.intervals[0].z_max, 2.0F);
+  EXPECT_FLOAT_EQ(c.intervals[0].rays, 2.0F);
+}
+
 TEST(FreeCellTest, FullCellJoinsNearestOnlyWhenClose) {
   FreeCell c;
-  for (int k = 0; k < FreeCell::kMaxIntervals; ++k) c.add(static_cast<float>(k), static_cast<float>(k) + 0.5F, 1, 0.2F);
-  c.add(100.0F, 101.0F, 1, 0.2F);  // far from all: dropped
+  for (int k = 0; k < FreeCell::kMaxIntervals; ++k) c.add(static_cast<float>(k), static_cast<float>(k) + 0.5F, 1, 0.0F, 0.2F);
+  c.add(100.0F, 101.0F, 1, 0.0F, 0.2F);  // far from all: dropped
   EXPECT_EQ(c.n, static_cast<std::uint32_t>(FreeCell::kMaxIntervals));
   float rays = 0;
   for (const auto& f : c.hvoxels()) rays += f.rays;
   EXPECT_FLOAT_EQ(rays, static_cast<float>(FreeCell::kMaxIntervals));
-  c.add(0.6F, 0.65F, 1, 0.2F);  // 0.1 above [0, 0.5]: joins it
+  c.add(0.6F, 0.65F, 1, 0.0F, 0.2F);  // 0.1 above [0, 0.5]: joins it
   bool joined = false;
   for (const auto& f : c.hvoxels()) joined |= f.z_min == 0.0F && f.z_max == 0.65F && f.rays == 2.0F;
   EXPECT_TRUE(joined);

@@ -62,6 +62,8 @@ std::vector<ParamRef> param_refs(Params& p) {
   r.push_back({"map.free_space", "enum", "0 = ray tracing and extrusion, 1 = none",
                [&m] { return static_cast<double>(m.free_space); },
                [&m](double v) { m.free_space = static_cast<FreeSpaceMode>(std::llround(v)); }});
+  r.push_back(ref("map.free_unite_gap", "m", "free bands of one cell closer than this unite",
+                  m.free_unite_gap));
   auto& g = p.ground;
   r.push_back(ref_int("ground.iterations", "-", "K, RRT iterations of Alg. 4", g.iterations));
   r.push_back(ref("ground.normal_threshold", "-", "N_th: 1 - |n1.n2| allowed between patches",
@@ -125,6 +127,7 @@ void validate(const Params& p) {
           "map.density_threshold", m.density_threshold, "in [0, K_m]");
   require(m.free_space == FreeSpaceMode::kRayTracing || m.free_space == FreeSpaceMode::kNone,
           "map.free_space", static_cast<double>(m.free_space), "0 or 1");
+  require(m.free_unite_gap >= 0.0, "map.free_unite_gap", m.free_unite_gap, ">= 0");
   const auto& g = p.ground;
   require(g.iterations >= 0, "ground.iterations", g.iterations, ">= 0");
   require(g.normal_threshold >= 0.0 && g.normal_threshold <= 1.0, "ground.normal_threshold",

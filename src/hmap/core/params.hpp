@@ -31,6 +31,8 @@ struct MapParams {
   double density_threshold = 0.5;          ///< n_th [-]: ray casting, extrusion removal, SLAM selection;
                                            ///< 0.5 means |v| >= d_min, whatever the volume
   FreeSpaceMode free_space = FreeSpaceMode::kRayTracing;
+  double free_unite_gap = 0.05;            ///< [m] free bands of one cell closer than this unite:
+                                           ///< neighbouring rays leave slivers a few cm apart
 };
 
 /// Ground extraction by RRT patch exploration (section IV-A, Alg. 4).

@@ -10,12 +10,13 @@
 
 namespace hmap {
 
-void FreeCell::add(float lo, float hi, float rays, float join_gap) {
-  // Unite with every overlapping interval (they stay disjoint, so at most a run of them).
+void FreeCell::add(float lo, float hi, float rays, float unite_gap, float join_gap) {
+  // Unite with every interval it overlaps or comes within unite_gap of (they are kept farther
+  // apart than that, so the union cannot reach one that [lo, hi] did not).
   std::uint32_t hit = n;
   for (std::uint32_t k = 0; k < n; ++k) {
     FreeHVoxel& iv = intervals[k];
-    if (lo <= iv.z_max && hi >= iv.z_min) {
+    if (lo <= iv.z_max + unite_gap && hi >= iv.z_min - unite_gap) {
       if (hit == n && lo >= iv.z_min && hi <= iv.z_max) {  // inside one: it overlaps no other
         iv.rays += rays;
         return;
@@ -35,7 +36,6 @@ void FreeCell::add(float lo, float hi, float rays, float join_gap) {
       }
     }
   }
-  // The intervals were disjoint, so the union cannot reach one that [lo, hi] did not overlap.
   if (hit != n) return;
   if (n < kMaxIntervals) {
     intervals[n++] = {lo, hi, rays};
@@ -92,10 +92,11 @@ void FreeSpaceTracer::trace(const ScanHVoxels& scan) {
   tbb::parallel_invoke([&] { sides_[0].trace(scan, params_); }, [&] { sides_[1].trace(scan, params_); });
   // Fold the second side into the first.
   const auto join_gap = static_cast<float>(params_.point_distance_threshold);
+  const auto unite_gap = static_cast<float>(params_.free_unite_gap);
   Accumulator& a = sides_[0];
   for (const FreeCell& fc : sides_[1].cells) {
     FreeCell& into = a.cell_at(scan.window.index(fc.key), fc.key);
-    for (const FreeHVoxel& f : fc.hvoxels()) into.add(f.z_min, f.z_max, f.rays, join_gap);
+    for (const FreeHVoxel& f : fc.hvoxels()) into.add(f.z_min, f.z_max, f.rays, unite_gap, join_gap);
   }
 }
 
@@ -103,6 +104,7 @@ void FreeSpaceTracer::Accumulator::trace(const ScanHVoxels& scan, const MapParam
   const double cell = params.cell_size;
   const auto n_th = static_cast<float>(params.density_threshold);
   const auto join_gap = static_cast<float>(params.point_distance_threshold);
+  const auto unite_gap = static_cast<float>(params.free_unite_gap);
   const double xs = scan.origin_map.x();
   const double ys = scan.origin_map.y();
   const auto zs = static_cast<float>(scan.origin_map.z());
@@ -128,7 +130,7 @@ void FreeSpaceTracer::Accumulator::trace(const ScanHVoxels& scan, const MapParam
         // Lines are linear in t: their extremes over [t_in, t_out] are at the ends.
         const float lo = zs + std::min(a * dz.x(), b * dz.x());
         const float hi = zs + std::max(a * dz.y(), b * dz.y());
-        free_cell.add(lo, hi, 1.0F, join_gap);
+        free_cell.add(lo, hi, 1.0F, unite_gap, join_gap);
       }
       return true;
     });

@@ -10,17 +10,18 @@
 namespace hmap {
 
 /// The free HVoxels one scan leaves in one cell: disjoint intervals, each counting its rays.
-struct FreeCell {
-  static constexpr int kMaxIntervals = 6;
+struct alignas(64) FreeCell {  // one cache line: every ray visit touches exactly one
+  static constexpr int kMaxIntervals = 4;
   CellKey key;
   std::uint32_t n = 0;
   std::array<FreeHVoxel, kMaxIntervals> intervals{};
 
   [[nodiscard]] std::span<const FreeHVoxel> hvoxels() const { return {intervals.data(), n}; }
-  /// Unites [lo, hi] (carrying `rays` rays) with the intervals it overlaps. When all slots are
-  /// taken and it overlaps none, it joins the nearest interval if closer than `join_gap`, else
-  /// it is dropped: leaving space unknown is safer than calling a gap free.
-  void add(float lo, float hi, float rays, float join_gap);
+  /// Unites [lo, hi] (carrying `rays` rays) with the intervals it overlaps or comes within
+  /// `unite_gap` of. When all slots are taken and it meets none, it joins the nearest interval if
+  /// closer than `join_gap`, else it is dropped: leaving space unknown is safer than calling a
+  /// gap free.
+  void add(float lo, float hi, float rays, float unite_gap, float join_gap);
 };
 
 /// Casts one ray per HVoxel of a scan from the sensor origin and accumulates the free HVoxels.
