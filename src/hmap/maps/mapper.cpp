@@ -3,6 +3,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 
 #include <algorithm>
 
@@ -27,10 +28,13 @@ ScanStats Mapper::integrate(std::span<const Point3f> points_sensor, const Pose& 
   stats.scan_hvoxels = scan_.hvoxels.size();
 
   const bool carve = map_.params().map.free_space == FreeSpaceMode::kRayTracing;
-  // Alg. 3: free-space HVoxels by HVoxel ray tracing.
-  if (carve) tracer_.trace(scan_);
-  // III-D: merge R into the map.
-  merge_scan();
+  if (carve) {
+    // Alg. 3 (free-space HVoxels by HVoxel ray tracing) reads only R; III-D (merging R into the
+    // map) writes only the map: they run side by side.
+    tbb::parallel_invoke([&] { tracer_.trace(scan_); }, [&] { merge_scan(); });
+  } else {
+    merge_scan();  // III-D
+  }
   // III-E: extrusion of the merged map by the free-space HVoxels.
   if (carve) {
     stats.rays = tracer_.rays();
