@@ -32,6 +32,7 @@ demo: build
 	@mkdir -p out
 	$(BUILD)/bin/hmap map --kitti $(DATA)/balm_os0 --preset outdoor --cell 0.1 --out out/balm_os0.hmap
 	$(BUILD)/bin/hmap info out/balm_os0.hmap
+	$(BUILD)/bin/hmap render out/balm_os0.hmap --out out/balm_os0_top.png
 	$(BUILD)/bin/hmap export out/balm_os0.hmap --ply out/balm_os0_hvoxels.ply
 
 test: build
