@@ -163,6 +163,7 @@ TEST_F(CliTest, BenchPrintsOneJsonObjectPerSystem) {
     EXPECT_GT(j.at("ms_per_scan").get<double>(), 0.0);
     EXPECT_GT(j.at("points_per_s").get<double>(), 0.0);
     EXPECT_GT(j.at("memory_bytes").get<double>(), 0.0);
+    EXPECT_TRUE(j.contains("heap_bytes"));
   }
   EXPECT_EQ(systems, (std::vector<std::string>{"hmap", "octomap"}));
 }
