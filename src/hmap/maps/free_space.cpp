@@ -117,23 +117,52 @@ void FreeSpaceTracer::Accumulator::trace(const ScanHVoxels& scan, const MapParam
     }
     if (ray_dz.empty()) continue;
     rays += ray_dz.size();
-    const double xt = (target.key.i + 0.5) * cell;
-    const double yt = (target.key.j + 0.5) * cell;
-    const double length_cells = std::hypot(xt - xs, yt - ys) / cell;
-    traverse_2d(xs, ys, xt, yt, cell, [&](const CellKey& key, double t_in, double t_out) {
-      if (key == target.key) return false;  // the HVoxel's own cell is not free
-      if ((t_out - t_in) * length_cells < 1e-6) return true;  // touched at a corner only
-      FreeCell& free_cell = cell_at(scan.window.index(key), key);
-      const auto a = static_cast<float>(t_in);
-      const auto b = static_cast<float>(t_out);
-      for (const Eigen::Vector2f& dz : ray_dz) {
-        // Lines are linear in t: their extremes over [t_in, t_out] are at the ends.
-        const float lo = zs + std::min(a * dz.x(), b * dz.x());
-        const float hi = zs + std::max(a * dz.y(), b * dz.y());
-        free_cell.add(lo, hi, 1.0F, unite_gap, join_gap);
+    // ProjectLineTo2D: the exact traversal of traverse_2d (ray_trace.hpp), written out here so
+    // the window index moves by a step instead of being recomputed, and the axis choice is a
+    // select rather than a branch (diagonal rays make it unpredictable).
+    const double gx0 = xs / cell;
+    const double gy0 = ys / cell;
+    const double dx = target.key.i + 0.5 - gx0;
+    const double dy = target.key.j + 0.5 - gy0;
+    const CellKey start{static_cast<std::int32_t>(std::floor(gx0)), static_cast<std::int32_t>(std::floor(gy0))};
+    const double length_cells = std::sqrt(dx * dx + dy * dy);
+    constexpr double kInf = std::numeric_limits<double>::infinity();
+    const long step_i = dx > 0 ? 1 : -1;
+    const long step_j = dy > 0 ? 1 : -1;
+    const double t_delta_i = dx != 0.0 ? std::abs(1.0 / dx) : kInf;
+    const double t_delta_j = dy != 0.0 ? std::abs(1.0 / dy) : kInf;
+    double t_max_i = dx > 0 ? (start.i + 1 - gx0) / dx : dx < 0 ? (start.i - gx0) / dx : kInf;
+    double t_max_j = dy > 0 ? (start.j + 1 - gy0) / dy : dy < 0 ? (start.j - gy0) / dy : kInf;
+    long rem_i = std::labs(static_cast<long>(target.key.i) - start.i);
+    long rem_j = std::labs(static_cast<long>(target.key.j) - start.j);
+    CellKey key = start;
+    std::size_t w = scan.window.index(start);
+    const long w_step_i = step_i * scan.window.width;
+    double t_in = 0.0;
+    // Every cell before the target's: the HVoxel's own cell is not free.
+    while (rem_i + rem_j > 0) {
+      const bool along_i = rem_i > 0 && (rem_j == 0 || t_max_i < t_max_j);
+      const double t_out = std::min(along_i ? t_max_i : t_max_j, 1.0);
+      if ((t_out - t_in) * length_cells >= 1e-6) {  // a cell touched only at a corner is not crossed
+        FreeCell& free_cell = cell_at(w, key);
+        const auto a = static_cast<float>(t_in);
+        const auto b = static_cast<float>(t_out);
+        for (const Eigen::Vector2f& dz : ray_dz) {
+          // Lines are linear in t: their extremes over [t_in, t_out] are at the ends.
+          const float lo = zs + std::min(a * dz.x(), b * dz.x());
+          const float hi = zs + std::max(a * dz.y(), b * dz.y());
+          free_cell.add(lo, hi, 1.0F, unite_gap, join_gap);
+        }
       }
-      return true;
-    });
+      t_in = t_out;
+      key.i += static_cast<std::int32_t>(along_i ? step_i : 0);
+      key.j += static_cast<std::int32_t>(along_i ? 0 : step_j);
+      w += static_cast<std::size_t>(along_i ? w_step_i : step_j);
+      rem_i -= along_i ? 1 : 0;
+      rem_j -= along_i ? 0 : 1;
+      t_max_i += along_i ? t_delta_i : 0.0;
+      t_max_j += along_i ? 0.0 : t_delta_j;
+    }
   }
 }
 
