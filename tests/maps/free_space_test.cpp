@@ -113,13 +113,15 @@ TEST(FreeSpaceTest, MatchesDenseSegmentSampling) {
     }
     // Same cells.
     std::size_t tracer_cells = 0;
-    for (const FreeCell& fc : tracer.cells()) {
+    for (const FreeCell* cell : tracer.cells()) {
+      const FreeCell& fc = *cell;
       ++tracer_cells;
       ASSERT_TRUE(brute.count(fc.key)) << "trial " << trial << ": extra cell " << fc.key.i << "," << fc.key.j;
     }
     // Cells the sampling touches only within 1e-5 of a corner may be missed by either side.
     EXPECT_NEAR(static_cast<double>(tracer_cells), static_cast<double>(brute.size()), 2.0);
-    for (const FreeCell& fc : tracer.cells()) {
+    for (const FreeCell* cell : tracer.cells()) {
+      const FreeCell& fc = *cell;
       auto bands = brute[fc.key];
       std::sort(bands.begin(), bands.end());
       std::vector<std::pair<double, double>> united;

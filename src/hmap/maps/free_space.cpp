@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
 
 #include <tbb/parallel_invoke.h>
@@ -60,7 +61,13 @@ void FreeCell::add(float lo, float hi, float rays, float unite_gap, float join_g
 
 FreeSpaceTracer::FreeSpaceTracer(const MapParams& params) : params_(params) {
   const auto half = static_cast<std::int32_t>(std::ceil(params_.max_range / params_.cell_size)) + 1;
-  for (auto& side : sides_) side.slot_of_window.assign(static_cast<std::size_t>(2 * half + 1) * (2 * half + 1), 0);
+  for (auto& q : quadrants_) q.slot_of_window.assign(static_cast<std::size_t>(2 * half + 1) * (2 * half + 1), 0);
+}
+
+std::size_t FreeSpaceTracer::rays() const {
+  std::size_t n = 0;
+  for (const auto& q : quadrants_) n += q.rays;
+  return n;
 }
 
 void FreeSpaceTracer::Accumulator::reset() {
@@ -81,22 +88,38 @@ FreeCell& FreeSpaceTracer::Accumulator::cell_at(std::size_t w, const CellKey& ke
   return cells[slot - 1];
 }
 
-void FreeSpaceTracer::trace(const ScanHVoxels& scan) {
-  for (auto& side : sides_) side.reset();
-  // Rays to cells at or above the sensor's row stay at or above it, and those below stay at or
-  // below: the two sides share only the sensor's row.
-  const std::int32_t row = scan.window.center.j;
-  for (std::uint32_t c = 0; c < scan.cells.size(); ++c) {
-    sides_[scan.cells[c].key.j >= row ? 0 : 1].targets.push_back(c);
+void FreeSpaceTracer::trace(const ScanHVoxels& scan, const std::function<void()>& alongside) {
+  for (auto& q : quadrants_) q.reset();
+  // A ray's cells are monotonic in i and in j, so rays to the quadrant (i >= ci, j >= cj) of the
+  // sensor's cell (ci, cj) stay in it, and so on: the quadrants share only the sensor's row and
+  // column of cells.
+  const CellKey c = scan.window.center;
+  for (std::uint32_t k = 0; k < scan.cells.size(); ++k) {
+    const CellKey& key = scan.cells[k].key;
+    quadrants_[(key.i >= c.i ? 0 : 1) + (key.j >= c.j ? 0 : 2)].targets.push_back(k);
   }
-  tbb::parallel_invoke([&] { sides_[0].trace(scan, params_); }, [&] { sides_[1].trace(scan, params_); });
-  // Fold the second side into the first.
+  tbb::parallel_invoke([&] { quadrants_[0].trace(scan, params_); }, [&] { quadrants_[1].trace(scan, params_); },
+                       [&] { quadrants_[2].trace(scan, params_); }, [&] { quadrants_[3].trace(scan, params_); },
+                       [&] {
+                         if (alongside) alongside();
+                       });
+  // Fold the shared row and column into the first quadrant.
   const auto join_gap = static_cast<float>(params_.point_distance_threshold);
   const auto unite_gap = static_cast<float>(params_.free_unite_gap);
-  Accumulator& a = sides_[0];
-  for (const FreeCell& fc : sides_[1].cells) {
-    FreeCell& into = a.cell_at(scan.window.index(fc.key), fc.key);
-    for (const FreeHVoxel& f : fc.hvoxels()) into.add(f.z_min, f.z_max, f.rays, unite_gap, join_gap);
+  Accumulator& first = quadrants_[0];
+  for (std::size_t q = 1; q < quadrants_.size(); ++q) {
+    for (FreeCell& fc : quadrants_[q].cells) {
+      if (fc.key.i != c.i && fc.key.j != c.j) continue;
+      FreeCell& into = first.cell_at(scan.window.index(fc.key), fc.key);
+      for (const FreeHVoxel& f : fc.hvoxels()) into.add(f.z_min, f.z_max, f.rays, unite_gap, join_gap);
+      fc.n = 0;  // folded
+    }
+  }
+  cells_.clear();
+  for (const auto& q : quadrants_) {
+    for (const FreeCell& fc : q.cells) {
+      if (fc.n > 0) cells_.push_back(&fc);
+    }
   }
 }
 

@@ -2,6 +2,7 @@
 // HVoxel ray tracing and free-space computation (section III-C, Alg. 3, Fig. 3).
 
 #include <array>
+#include <functional>
 #include <span>
 #include <vector>
 
@@ -25,8 +26,8 @@ struct alignas(64) FreeCell {  // one cache line: every ray visit touches exactl
 };
 
 /// Casts one ray per HVoxel of a scan from the sensor origin and accumulates the free HVoxels.
-/// The rays run on two threads (TBB), one per side of the sensor's row of cells, each into its
-/// own accumulator; the few cells both sides reach (the sensor's row) are folded together after.
+/// The rays run as four tasks (TBB), one per quadrant around the sensor's cell, each into its
+/// own accumulator; the cells two quadrants share (the sensor's row and column) are folded after.
 class FreeSpaceTracer {
  public:
   explicit FreeSpaceTracer(const MapParams& params);
@@ -34,10 +35,12 @@ class FreeSpaceTracer {
   /// Alg. 3: for every HVoxel with ρ >= n_th, the cells between the sensor's cell and the
   /// HVoxel's cell (ProjectLineTo2D, an exact grid traversal; the HVoxel's own cell excluded)
   /// get the free interval swept between the line models to z_max and to z_min over the cell.
-  void trace(const ScanHVoxels& scan);
+  /// `alongside`, if given, runs as one more task beside the rays (the mapper merges meanwhile).
+  void trace(const ScanHVoxels& scan, const std::function<void()>& alongside = {});
 
-  [[nodiscard]] const std::vector<FreeCell>& cells() const { return sides_[0].cells; }
-  [[nodiscard]] std::size_t rays() const { return sides_[0].rays + sides_[1].rays; }
+  /// The free cells of the last trace, each cell once.
+  [[nodiscard]] const std::vector<const FreeCell*>& cells() const { return cells_; }
+  [[nodiscard]] std::size_t rays() const;
 
  private:
   struct Accumulator {
@@ -53,7 +56,8 @@ class FreeSpaceTracer {
   };
 
   MapParams params_;
-  std::array<Accumulator, 2> sides_;
+  std::array<Accumulator, 4> quadrants_;
+  std::vector<const FreeCell*> cells_;
 };
 
 }  // namespace hmap

@@ -3,7 +3,6 @@
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_invoke.h>
 
 #include <algorithm>
 
@@ -31,7 +30,7 @@ ScanStats Mapper::integrate(std::span<const Point3f> points_sensor, const Pose& 
   if (carve) {
     // Alg. 3 (free-space HVoxels by HVoxel ray tracing) reads only R; III-D (merging R into the
     // map) writes only the map: they run side by side.
-    tbb::parallel_invoke([&] { tracer_.trace(scan_); }, [&] { merge_scan(); });
+    tracer_.trace(scan_, [&] { merge_scan(); });
   } else {
     merge_scan();  // III-D
   }
@@ -81,7 +80,7 @@ void Mapper::extrude_free_space(ScanStats& stats) {
     auto& pieces = pieces_of_thread.local();
     auto& counts = counts_of_thread.local();
     for (std::size_t k = range.begin(); k != range.end(); ++k) {
-      const FreeCell& free_cell = free_cells[k];
+      const FreeCell& free_cell = *free_cells[k];
       Column* column = map_.find_column(free_cell.key);
       if (column == nullptr || column->empty()) continue;
       // Within one scan a hit outranks a pass-through, as in OctoMap: the scan's own HVoxels in
