@@ -6,6 +6,7 @@
 #include <malloc.h>
 
 #include <cstdio>
+#include <limits>
 #include <optional>
 #include <iostream>
 
@@ -24,6 +25,7 @@ struct BenchOptions {
   std::size_t scans = 0;
   bool json = false;
   bool skip_octomap = false;
+  bool octomap_drop_far = false;
 };
 
 struct Result {
@@ -100,9 +102,14 @@ void run_bench(const BenchOptions& o) {
     octomap::OcTree tree(params.map.cell_size);
     Progress progress("octomap", clouds.size());
     const double min2 = params.map.min_range * params.map.min_range;
-    const double max2 = params.map.max_range * params.map.max_range;
+    // Points beyond max_range go to OctoMap, which casts their rays to max_range as free space
+    // (its insertPointCloud(..., maxrange) semantics), unless --octomap-drop-far drops them as
+    // HMAP does.
+    const double max2 = o.octomap_drop_far ? params.map.max_range * params.map.max_range
+                                           : std::numeric_limits<double>::infinity();
     for (std::size_t k = 0; k < clouds.size(); ++k) {
-      // The same points HMAP keeps: finite and within the range limits, in the map frame.
+      // The scan in the map frame: finite points, none closer than min_range (the sensor's own
+      // body, which OctoMap has no parameter to drop).
       octomap::Pointcloud cloud_map;
       cloud_map.reserve(clouds[k].size());
       const Pose& T = poses[k];
@@ -148,6 +155,9 @@ void add_bench_command(CLI::App& app) {
   cmd->add_option("--scans", opts->scans, "Use only the first N scans");
   cmd->add_flag("--json", opts->json, "One JSON object per line, one per system");
   cmd->add_flag("--hmap-only", opts->skip_octomap, "Skip the OctoMap side");
+  cmd->add_flag("--octomap-drop-far", opts->octomap_drop_far,
+                "Drop points beyond --max-range before OctoMap (default: OctoMap truncates their rays "
+                "at max range and marks them free, its own behaviour)");
   opts->params.add_to(*cmd);
   cmd->callback([opts] { run_bench(*opts); });
 }
