@@ -1,0 +1,174 @@
+#include "render.hpp"
+
+#include <algorithm>
+#include <limits>
+
+#include "hmap/core/error.hpp"
+
+namespace hmap::cli {
+
+void height_colour(double t, std::uint8_t& r, std::uint8_t& g, std::uint8_t& b) {
+  t = std::clamp(t, 0.0, 1.0);
+  const auto channel = [](double v) { return static_cast<std::uint8_t>(std::lround(255.0 * std::clamp(v, 0.0, 1.0))); };
+  r = channel(1.5 - std::abs(4.0 * t - 3.0));
+  g = channel(1.5 - std::abs(4.0 * t - 2.0));
+  b = channel(1.5 - std::abs(4.0 * t - 1.0));
+}
+
+HeightRange resolve_range(const HMap& map, HeightRange range) {
+  if (std::isnan(range.z_low) || std::isnan(range.z_high)) {
+    std::vector<float> tops;
+    map.for_each_column([&](const CellKey&, const Column& c) { tops.push_back(c[c.size() - 1].z_max); });
+    if (tops.empty()) return {0.0, 1.0};
+    std::sort(tops.begin(), tops.end());
+    if (std::isnan(range.z_low)) range.z_low = tops[tops.size() * 2 / 100];
+    if (std::isnan(range.z_high)) range.z_high = tops[tops.size() * 98 / 100];
+  }
+  if (!(range.z_high > range.z_low)) range.z_high = range.z_low + 1.0;
+  return range;
+}
+
+RgbImage render_top(const HMap& map, const HeightRange& range_in, int max_pixels, TopViewport& vp,
+                    double margin_m) {
+  const MapStats st = map.stats();
+  if (st.hvoxels == 0) throw Error("the map is empty, nothing to draw");
+  const HeightRange range = resolve_range(map, range_in);
+  const double x0 = st.bounds.min().x() - margin_m;
+  const double y0 = st.bounds.min().y() - margin_m;
+  const double x1 = st.bounds.max().x() + margin_m;
+  const double y1 = st.bounds.max().y() + margin_m;
+  const double cell = map.cell_size();
+  // One pixel per cell, or coarser for large maps.
+  vp.m_per_px = std::max(cell, std::max(x1 - x0, y1 - y0) / max_pixels);
+  vp.x0 = x0;
+  vp.y1 = y1;
+  vp.width = std::max(1, static_cast<int>(std::ceil((x1 - x0) / vp.m_per_px)));
+  vp.height = std::max(1, static_cast<int>(std::ceil((y1 - y0) / vp.m_per_px)));
+  const auto n = static_cast<std::size_t>(vp.width) * static_cast<std::size_t>(vp.height);
+  std::vector<float> top(n, -std::numeric_limits<float>::infinity());
+  std::vector<std::uint8_t> layers(n, 0);
+  map.for_each_column([&](const CellKey& key, const Column& c) {
+    const Eigen::Vector2d xy = map.cell_center(key);
+    const auto x = static_cast<int>(std::floor(vp.px(xy.x())));
+    const auto y = static_cast<int>(std::floor(vp.py(xy.y())));
+    if (x < 0 || y < 0 || x >= vp.width || y >= vp.height) return;
+    const std::size_t k = static_cast<std::size_t>(y) * static_cast<std::size_t>(vp.width) + static_cast<std::size_t>(x);
+    top[k] = std::max(top[k], c[c.size() - 1].z_max);
+    layers[k] = static_cast<std::uint8_t>(std::max<std::size_t>(layers[k], std::min<std::size_t>(c.size(), 255)));
+  });
+  RgbImage img(vp.width, vp.height, 0);
+  for (std::size_t k = 0; k < n; ++k) {
+    if (!std::isfinite(top[k])) continue;  // unknown: black
+    std::uint8_t r = 0, g = 0, b = 0;
+    height_colour((top[k] - range.z_low) / (range.z_high - range.z_low), r, g, b);
+    if (layers[k] > 1) {  // overhangs (several HVoxels in the column) drawn lighter
+      r = static_cast<std::uint8_t>((r + 255) / 2);
+      g = static_cast<std::uint8_t>((g + 255) / 2);
+      b = static_cast<std::uint8_t>((b + 255) / 2);
+    }
+    img.rgb[3 * k] = r;
+    img.rgb[3 * k + 1] = g;
+    img.rgb[3 * k + 2] = b;
+  }
+  return img;
+}
+
+RgbImage render_oblique(const HMap& map, const HeightRange& range_in, int max_pixels) {
+  const MapStats st = map.stats();
+  if (st.hvoxels == 0) throw Error("the map is empty, nothing to draw");
+  const HeightRange range = resolve_range(map, range_in);
+  // View from the south-west (azimuth 225°), 35° above the horizon: screen u along (1, -1)/√2,
+  // depth along (1, 1)/√2 horizontally; screen v mixes depth and height.
+  const double elev = 35.0 * M_PI / 180.0;
+  const double se = std::sin(elev);
+  const double ce = std::cos(elev);
+  const auto project = [&](double x, double y, double z, double& u, double& v, double& depth) {
+    const double a = (x - y) / std::sqrt(2.0);
+    const double d = (x + y) / std::sqrt(2.0);
+    u = a;
+    v = -(z * ce + d * se);  // up on screen is -v
+    depth = d * ce - z * se;
+  };
+  double umin = 1e300, umax = -1e300, vmin = 1e300, vmax = -1e300, dmin = 1e300, dmax = -1e300;
+  for (int corner = 0; corner < 8; ++corner) {
+    const double x = corner & 1 ? st.bounds.max().x() : st.bounds.min().x();
+    const double y = corner & 2 ? st.bounds.max().y() : st.bounds.min().y();
+    const double z = std::clamp(corner & 4 ? st.bounds.max().z() : st.bounds.min().z(), range.z_low - 2.0,
+                                range.z_high + 2.0);
+    double u = 0, v = 0, d = 0;
+    project(x, y, z, u, v, d);
+    umin = std::min(umin, u);
+    umax = std::max(umax, u);
+    vmin = std::min(vmin, v);
+    vmax = std::max(vmax, v);
+    dmin = std::min(dmin, d);
+    dmax = std::max(dmax, d);
+  }
+  const double scale = std::min(max_pixels / std::max(umax - umin, 1e-6), max_pixels / std::max(vmax - vmin, 1e-6));
+  const double px_per_m = std::min(scale, 2.0 / map.cell_size() * 4.0);
+  const int w = std::max(1, static_cast<int>(std::ceil((umax - umin) * px_per_m)) + 1);
+  const int h = std::max(1, static_cast<int>(std::ceil((vmax - vmin) * px_per_m)) + 1);
+  RgbImage img(w, h, 255);
+  std::vector<float> zbuf(static_cast<std::size_t>(w) * static_cast<std::size_t>(h), std::numeric_limits<float>::infinity());
+  const double half = map.cell_size() / 2.0;
+  const int bar = std::max(1, static_cast<int>(std::lround(map.cell_size() * px_per_m)));
+  map.for_each_column([&](const CellKey& key, const Column& c) {
+    const Eigen::Vector2d xy = map.cell_center(key);
+    for (const HVoxel& hv : c) {
+      // Sample the bar from z_min to z_max at about one pixel per step.
+      const double z_lo = std::clamp(static_cast<double>(hv.z_min), range.z_low - 2.0, range.z_high + 2.0);
+      const double z_hi = std::clamp(static_cast<double>(hv.z_max), range.z_low - 2.0, range.z_high + 2.0);
+      const double step = 1.0 / (px_per_m * ce);
+      for (double z = z_lo; z <= z_hi + 1e-9; z += step) {
+        double u = 0, v = 0, d = 0;
+        project(xy.x(), xy.y(), z, u, v, d);
+        const int x = static_cast<int>((u - umin) * px_per_m);
+        const int y = static_cast<int>((v - vmin) * px_per_m);
+        std::uint8_t r = 0, g = 0, b = 0;
+        height_colour((z - range.z_low) / (range.z_high - range.z_low), r, g, b);
+        // Shade by depth so the nearer faces read in front.
+        const double shade = 0.55 + 0.45 * std::clamp(1.0 - (d - dmin) / std::max(dmax - dmin, 1e-6), 0.0, 1.0);
+        for (int dx = 0; dx < bar; ++dx) {
+          const int xx = x + dx - bar / 2;
+          if (xx < 0 || xx >= w || y < 0 || y >= h) continue;
+          const std::size_t k = static_cast<std::size_t>(y) * static_cast<std::size_t>(w) + static_cast<std::size_t>(xx);
+          const auto depth = static_cast<float>(d - half);
+          if (depth >= zbuf[k]) continue;
+          zbuf[k] = depth;
+          const double edge = dx == 0 || dx == bar - 1 ? 0.8 : 1.0;  // a darker rim separates bars
+          img.set(xx, y, static_cast<std::uint8_t>(r * shade * edge), static_cast<std::uint8_t>(g * shade * edge),
+                  static_cast<std::uint8_t>(b * shade * edge));
+        }
+      }
+    }
+  });
+  return img;
+}
+
+void draw_path(RgbImage& image, const TopViewport& vp, const PoseList& poses, std::uint8_t r, std::uint8_t g,
+               std::uint8_t b) {
+  const auto plot = [&](int x, int y) {
+    for (int dy = 0; dy < 2; ++dy)
+      for (int dx = 0; dx < 2; ++dx)
+        if (x + dx >= 0 && y + dy >= 0 && x + dx < image.width && y + dy < image.height) image.set(x + dx, y + dy, r, g, b);
+  };
+  for (std::size_t k = 1; k < poses.size(); ++k) {
+    const double xa = vp.px(poses[k - 1].translation().x()), ya = vp.py(poses[k - 1].translation().y());
+    const double xb = vp.px(poses[k].translation().x()), yb = vp.py(poses[k].translation().y());
+    const int steps = std::max(1, static_cast<int>(std::ceil(std::max(std::abs(xb - xa), std::abs(yb - ya)))));
+    for (int s = 0; s <= steps; ++s) {
+      const double t = static_cast<double>(s) / steps;
+      plot(static_cast<int>(xa + t * (xb - xa)), static_cast<int>(ya + t * (yb - ya)));
+    }
+  }
+  if (!poses.empty()) {
+    const int x = static_cast<int>(vp.px(poses[0].translation().x()));
+    const int y = static_cast<int>(vp.py(poses[0].translation().y()));
+    for (int dy = -3; dy <= 3; ++dy)
+      for (int dx = -3; dx <= 3; ++dx)
+        if (dx * dx + dy * dy <= 9 && x + dx >= 0 && y + dy >= 0 && x + dx < image.width && y + dy < image.height)
+          image.set(x + dx, y + dy, r, g, b);
+  }
+}
+
+}  // namespace hmap::cli

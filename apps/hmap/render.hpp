@@ -1,0 +1,49 @@
+#pragma once
+// Pictures of maps for people: top-down and oblique views, trajectories drawn over them.
+
+#include <cmath>
+#include <vector>
+
+#include "hmap/io/png.hpp"
+#include "hmap/maps/hmap.hpp"
+
+namespace hmap::cli {
+
+/// Height colouring: z_low is blue, z_high red; NaN means "from the map" (2nd/98th percentile of
+/// the column tops).
+struct HeightRange {
+  double z_low = NAN;
+  double z_high = NAN;
+};
+
+/// How world x, y map to pixels of a top-down picture (north up, x to the right).
+struct TopViewport {
+  double x0 = 0.0;        ///< world x at the left edge [m]
+  double y1 = 0.0;        ///< world y at the top edge [m]
+  double m_per_px = 0.1;  ///< [m]
+  int width = 0;
+  int height = 0;
+  [[nodiscard]] double px(double x) const { return (x - x0) / m_per_px; }
+  [[nodiscard]] double py(double y) const { return (y1 - y) / m_per_px; }
+};
+
+/// The resolved height range (percentiles of the tops where not given).
+[[nodiscard]] HeightRange resolve_range(const HMap& map, HeightRange range);
+
+/// Top-down: each pixel coloured by the highest HVoxel top below it; columns with several
+/// HVoxels (overhangs) drawn lighter; unknown black. `margin_m` widens the picture (for paths).
+[[nodiscard]] RgbImage render_top(const HMap& map, const HeightRange& range, int max_pixels,
+                                  TopViewport& viewport, double margin_m = 0.0);
+
+/// Oblique: the HVoxels as vertical bars seen from the south-west, 35° above the horizon,
+/// height-coloured and shaded by depth, with a z-buffer.
+[[nodiscard]] RgbImage render_oblique(const HMap& map, const HeightRange& range, int max_pixels);
+
+/// Draws the x, y path of `poses` over a top view: a 2-pixel line, a dot at the start.
+void draw_path(RgbImage& image, const TopViewport& viewport, const PoseList& poses, std::uint8_t r,
+               std::uint8_t g, std::uint8_t b);
+
+/// Blue → cyan → green → yellow → red for t in [0, 1].
+void height_colour(double t, std::uint8_t& r, std::uint8_t& g, std::uint8_t& b);
+
+}  // namespace hmap::cli
