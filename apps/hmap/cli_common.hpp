@@ -68,5 +68,6 @@ void add_info_command(CLI::App& app);
 void add_export_command(CLI::App& app);
 void add_bench_command(CLI::App& app);
 void add_render_command(CLI::App& app);
+void add_eval_command(CLI::App& app);
 
 }  // namespace hmap::cli
