@@ -9,7 +9,7 @@ DEBS := cmake ninja-build g++ pkg-config libeigen3-dev libnanoflann-dev libtbb-d
         nlohmann-json3-dev libyaml-cpp-dev libzstd-dev liblzf-dev libxxhash-dev libpng-dev \
         liboctomap-dev libgtest-dev libgmock-dev libbenchmark-dev
 
-.PHONY: all deps build demo test test-sanitize bench clean
+.PHONY: all deps build demo demo-real test test-sanitize bench clean
 
 all: build
 
@@ -27,12 +27,19 @@ $(BUILD)/build.ninja: | deps
 build: deps $(BUILD)/build.ninja
 	cmake --build $(BUILD) -j $(JOBS)
 
-# The main job on the built-in default data: maps the real OS0 recording (until the simulator lands).
+# The main job on the built-in default: simulate the `parking` scene with a VLP-16 along a car
+# path, map it, evaluate the map against the truth, draw it (no download needed).
 demo: build
+	$(BUILD)/bin/hmap demo --out out/demo
+	@echo "report: out/demo/report.md; pictures: out/demo/map_top.png out/demo/map_oblique.png"
+
+# The same on real recorded scans: the Ouster OS0-64 recording of ../shared/data.
+demo-real: build
 	@mkdir -p out
 	$(BUILD)/bin/hmap map --kitti $(DATA)/balm_os0 --preset outdoor --cell 0.1 --out out/balm_os0.hmap
 	$(BUILD)/bin/hmap info out/balm_os0.hmap
-	$(BUILD)/bin/hmap render out/balm_os0.hmap --out out/balm_os0_top.png
+	$(BUILD)/bin/hmap render out/balm_os0.hmap --trajectory $(DATA)/balm_os0/poses.txt --out out/balm_os0_top.png
+	$(BUILD)/bin/hmap render out/balm_os0.hmap --view oblique --out out/balm_os0_oblique.png
 	$(BUILD)/bin/hmap export out/balm_os0.hmap --ply out/balm_os0_hvoxels.ply
 
 test: build

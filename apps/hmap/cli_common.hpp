@@ -69,5 +69,7 @@ void add_export_command(CLI::App& app);
 void add_bench_command(CLI::App& app);
 void add_render_command(CLI::App& app);
 void add_eval_command(CLI::App& app);
+void add_simulate_command(CLI::App& app);
+void add_demo_command(CLI::App& app);
 
 }  // namespace hmap::cli

@@ -38,7 +38,10 @@ nlohmann::json scores_json(const OccupancyScores& s) {
 void run_eval_map(const EvalMapOptions& o) {
   const HMap map = load_hmap(o.map);
   std::filesystem::path truth_path = o.truth;
-  if (std::filesystem::is_directory(truth_path)) truth_path /= "truth.ply";
+  // A simulated folder: what the sensor could see (truth_seen.ply) when there, else every surface.
+  if (std::filesystem::is_directory(truth_path)) {
+    truth_path = std::filesystem::exists(truth_path / "truth_seen.ply") ? truth_path / "truth_seen.ply" : truth_path / "truth.ply";
+  }
   const PointCloud truth = read_ply(truth_path);
   const MapMetrics m = evaluate_map(map, truth, o.params);
   if (o.json) {
@@ -127,7 +130,7 @@ void add_eval_command(CLI::App& app) {
   auto map_opts = std::make_shared<EvalMapOptions>();
   auto* map_cmd = cmd->add_subcommand("map", "Precision, recall and F-score of occupied space, Chamfer distance");
   map_cmd->add_option("--map", map_opts->map, "Map file (.hmap)")->required();
-  map_cmd->add_option("--truth", map_opts->truth, "Simulated sequence folder (its truth.ply) or a PLY of the true surface")->required();
+  map_cmd->add_option("--truth", map_opts->truth, "Simulated folder (its truth_seen.ply, else truth.ply) or a PLY of the true surface")->required();
   map_cmd->add_option("--voxel-height", map_opts->params.voxel_height, "Vertical voxel size [m] (default: the cell size)");
   map_cmd->add_option("--tolerance", map_opts->params.tolerance_voxels, "Voxels of slack for the tolerant score")
       ->check(CLI::Range(0, 10))

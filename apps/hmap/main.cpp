@@ -19,6 +19,8 @@ int main(int argc, char** argv) {
   hmap::cli::add_bench_command(app);
   hmap::cli::add_render_command(app);
   hmap::cli::add_eval_command(app);
+  hmap::cli::add_simulate_command(app);
+  hmap::cli::add_demo_command(app);
   auto* params_cmd = app.add_subcommand("params", "Print every parameter of a preset with its unit");
   auto preset = std::make_shared<std::string>("outdoor");
   params_cmd->add_option("--preset", *preset, "indoor or outdoor")->capture_default_str();

@@ -1,0 +1,137 @@
+#include "simulation.hpp"
+
+#include <fstream>
+#include <random>
+#include <sstream>
+#include <variant>
+
+#include "hmap/core/error.hpp"
+#include "hmap/sim/builtin_scenes.hpp"
+#include "hmap/sim/scene_json.hpp"
+#include "hmap/sim/sensors.hpp"
+#include "hmap/sim/trajectory.hpp"
+
+namespace hmap::cli {
+
+namespace {
+
+using Sensor = std::variant<sim::SpinningLidar, sim::DepthCamera, sim::LineScanner>;
+
+Sensor make_sensor(const std::string& name, std::uint64_t seed, bool noise_free) {
+  if (name == "vlp16" || name == "hdl64") {
+    auto p = name == "vlp16" ? sim::SpinningLidarParams::vlp16() : sim::SpinningLidarParams::hdl64e();
+    p.seed = seed;
+    if (noise_free) p.range_sigma = 0.0, p.dropout_probability = 0.0;
+    return sim::SpinningLidar(p);
+  }
+  if (name == "kinect") {
+    auto p = sim::DepthCameraParams::kinect_one();
+    p.seed = seed;
+    if (noise_free) p.sigma_base = 0.0, p.sigma_quadratic = 0.0, p.dropout_probability = 0.0;
+    return sim::DepthCamera(p);
+  }
+  if (name == "utm30lx-tilt" || name == "utm30lx-yaw") {
+    auto p = name == "utm30lx-tilt" ? sim::LineScannerParams::utm30lx_tilting() : sim::LineScannerParams::utm30lx_yawing();
+    p.seed = seed;
+    if (noise_free) p.range_sigma = 0.0, p.dropout_probability = 0.0;
+    return sim::LineScanner(p);
+  }
+  throw Error("unknown sensor '" + name + "' (known: vlp16, hdl64, kinect, utm30lx-tilt, utm30lx-yaw)");
+}
+
+double sensor_reach(const Sensor& s) {
+  return std::visit([](const auto& x) { return x.params().max_range; }, s);
+}
+
+sim::SimulatedScan scan_with(Sensor& s, const sim::Scene& scene, const Pose& T, double t) {
+  return std::visit([&](auto& x) { return x.scan(scene, T, t); }, s);
+}
+
+/// The scripted path of a scene, for a sensor mounted at `height` above the floor.
+sim::Trajectory path_for(const SimulationSpec& spec, double height) {
+  if (spec.scene_file.empty() && spec.scene == "parking") {
+    sim::CarPathParams p;
+    p.sensor_height = height;
+    const auto route = sim::parking_car_route();
+    return sim::car_path(route, p);
+  }
+  if (spec.scene_file.empty() && spec.scene == "boxes") {
+    // Along the enclosure's axis, as the seed's scanner on its stand.
+    sim::DiffDriveParams p;
+    p.speed = 0.2;
+    p.sensor_height = height;
+    p.floor_z = -1.0;
+    const std::vector<Eigen::Vector2d> route = {{0.0, 0.35}, {0.0, 1.6}};
+    return sim::diff_drive_path(route, p);
+  }
+  sim::DiffDriveParams p;
+  p.sensor_height = height;
+  const auto route = sim::office_robot_route();
+  return sim::diff_drive_path(route, p);
+}
+
+}  // namespace
+
+SimulatedRecording simulate(const SimulationSpec& spec, const std::function<void(std::size_t, std::size_t)>& progress) {
+  if (spec.stride == 0) throw Error("--stride must be at least 1");
+  if (!(spec.truth_spacing >= 0.005)) throw Error("--truth-spacing must be at least 0.005 m");
+  sim::Scene scene = [&] {
+    if (spec.scene_file.empty()) return sim::make_scene(spec.scene);
+    std::ifstream in(spec.scene_file, std::ios::binary);
+    if (!in) throw InputError(spec.scene_file, "", "cannot open the scene file");
+    std::ostringstream text;
+    text << in.rdbuf();
+    try {
+      return sim::scene_from_json(text.str());
+    } catch (const Error& e) {
+      throw InputError(spec.scene_file, "", e.what());
+    }
+  }();
+  Sensor sensor = make_sensor(spec.sensor, spec.seed, false);
+  Sensor exact = make_sensor(spec.sensor, spec.seed, true);
+  // Spinning lidars on a car roof, the others on a robot at about 0.5 m (the Kinect at 0.8 m).
+  const bool outdoor = spec.sensor == "vlp16" || spec.sensor == "hdl64";
+  const double height = outdoor ? 1.73 : spec.sensor == "kinect" ? 0.8 : 0.5;
+  const sim::Trajectory path = path_for(spec, height);
+
+  SimulatedRecording rec;
+  for (std::size_t k = 0; k < path.T_world_sensor.size(); k += spec.stride) {
+    if (spec.frames > 0 && rec.T_world_sensor.size() == spec.frames) break;
+    rec.T_world_sensor.push_back(path.T_world_sensor[k]);
+    rec.times.push_back(path.times[k]);
+  }
+  if (rec.T_world_sensor.empty()) throw Error("the path of scene '" + spec.scene + "' has no frame");
+  const std::size_t n = rec.T_world_sensor.size();
+  const double t_end = rec.times.back();
+  for (std::size_t k = 0; k < n; ++k) {
+    sim::SimulatedScan s = scan_with(sensor, scene, rec.T_world_sensor[k], rec.times[k]);
+    rec.points += s.points_sensor.size();
+    rec.scans.push_back(std::move(s.points_sensor));
+    // What the sensor could see of the scene as it stands at the end (moving objects gone).
+    const sim::SimulatedScan e = scan_with(exact, scene, rec.T_world_sensor[k], t_end);
+    for (const Point3f& p : e.points_sensor) rec.truth_seen.push_back((rec.T_world_sensor[k] * p.cast<double>()).cast<float>());
+    if (progress) progress(k + 1, n);
+  }
+  sim::OdometryNoiseParams noise;
+  noise.seed = spec.seed;
+  rec.odometry = sim::noisy_odometry(rec.T_world_sensor, noise);
+  // The dense sample, kept within reach of the path: anchors every 2 m along it, and the reach
+  // widened by that spacing so no point near the path is lost between anchors.
+  std::vector<Eigen::Vector3d> anchors;
+  for (const Pose& T : rec.T_world_sensor) {
+    if (anchors.empty() || (T.translation() - anchors.back()).norm() >= 2.0) anchors.push_back(T.translation());
+  }
+  const double reach = std::min(sensor_reach(sensor), spec.truth_reach) + 2.0;
+  std::mt19937_64 rng(spec.seed);
+  for (const Point3f& p : scene.sample_surface(spec.truth_spacing, rng, t_end)) {
+    for (const Eigen::Vector3d& a : anchors) {
+      if ((p.cast<double>() - a).squaredNorm() <= reach * reach) {
+        rec.truth_surface.push_back(p);
+        break;
+      }
+    }
+  }
+  return rec;
+}
+
+}  // namespace hmap::cli

@@ -1,0 +1,39 @@
+#pragma once
+// A simulated recording: a built-in (or JSON) scene, a sensor, a scripted path, noisy scans,
+// the true poses, noisy odometry and the true geometry the sensor could see.
+
+#include <cstdint>
+#include <functional>
+#include <string>
+
+#include "hmap/core/types.hpp"
+#include "hmap/sim/scene.hpp"
+
+namespace hmap::cli {
+
+struct SimulationSpec {
+  std::string scene = "parking";   ///< built-in name
+  std::string scene_file;          ///< or a JSON scene description (then `scene` is ignored)
+  std::string sensor = "vlp16";    ///< vlp16, hdl64, kinect, utm30lx-tilt, utm30lx-yaw
+  std::size_t frames = 0;          ///< 0: the whole path
+  std::size_t stride = 1;          ///< take every stride-th frame of the 10 Hz path
+  std::uint64_t seed = 1;
+  double truth_spacing = 0.1;      ///< [m] of the dense surface sample
+  double truth_reach = 30.0;       ///< [m] the sample is kept this close to the path
+};
+
+struct SimulatedRecording {
+  std::vector<PointCloud> scans;   ///< sensor frame
+  PoseList T_world_sensor;         ///< the truth
+  std::vector<double> times;       ///< [s]
+  PoseList odometry;               ///< integrated noisy odometry
+  PointCloud truth_seen;           ///< noise-free returns of the same sensor at every pose, scene at the last time
+  PointCloud truth_surface;        ///< dense sample of every surface within the sensor's reach of the path
+  std::size_t points = 0;
+};
+
+/// Runs the simulation; `progress(done, total)` is called after each frame.
+[[nodiscard]] SimulatedRecording simulate(const SimulationSpec& spec,
+                                          const std::function<void(std::size_t, std::size_t)>& progress = {});
+
+}  // namespace hmap::cli

@@ -1,0 +1,67 @@
+#include "hmap/io/sequence_writer.hpp"
+
+#include <array>
+#include <bit>
+#include <charconv>
+#include <cmath>
+#include <cstring>
+#include <string>
+
+#include "hmap/core/error.hpp"
+#include "hmap/io/atomic_file.hpp"
+#include "hmap/io/ply_export.hpp"
+#include "hmap/io/poses.hpp"
+
+namespace hmap {
+namespace {
+
+static_assert(std::endian::native == std::endian::little, "KITTI .bin files are little-endian");
+
+void check_count(std::size_t count, std::size_t frames, const char* what) {
+  if (count != frames) {
+    throw Error(std::string("write_simulated_sequence: ") + std::to_string(count) + " " + what + " for " +
+                std::to_string(frames) + " frames");
+  }
+}
+
+}  // namespace
+
+void write_kitti_bin(const std::filesystem::path& path, const PointCloud& cloud) {
+  std::string bytes(cloud.size() * 4 * sizeof(float), '\0');
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const std::array<float, 4> record{cloud[i].x(), cloud[i].y(), cloud[i].z(), 0.0F};
+    std::memcpy(bytes.data() + i * sizeof(record), record.data(), sizeof(record));
+  }
+  write_file_atomic(path, bytes);
+}
+
+void write_simulated_sequence(const std::filesystem::path& dir, std::span<const PointCloud> frames,
+                              const PoseList& true_poses, std::span<const double> times,
+                              const PoseList& odometry_poses, const PointCloud& truth_points) {
+  check_count(true_poses.size(), frames.size(), "true poses");
+  check_count(times.size(), frames.size(), "times");
+  if (!odometry_poses.empty()) check_count(odometry_poses.size(), frames.size(), "odometry poses");
+  std::error_code error;
+  std::filesystem::create_directories(dir / "velodyne", error);
+  if (error) throw Error("cannot create " + (dir / "velodyne").string() + ": " + error.message());
+
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    std::string number = std::to_string(i);
+    if (number.size() < 6) number.insert(0, 6 - number.size(), '0');
+    write_kitti_bin(dir / "velodyne" / (number + ".bin"), frames[i]);
+  }
+  write_poses_kitti(dir / "poses.txt", true_poses);
+  write_file_atomic(dir / "times.txt", [&](std::ostream& out) {
+    for (const double t : times) {
+      if (!std::isfinite(t)) throw Error("write_simulated_sequence: a time is not finite");
+      std::array<char, 32> text{};
+      const auto end = std::to_chars(text.data(), text.data() + text.size(), t).ptr;  // shortest round trip
+      out.write(text.data(), end - text.data());
+      out.put('\n');
+    }
+  });
+  if (!odometry_poses.empty()) write_poses_kitti(dir / "odometry.txt", odometry_poses);
+  if (!truth_points.empty()) write_points_ply(dir / "truth.ply", truth_points);
+}
+
+}  // namespace hmap

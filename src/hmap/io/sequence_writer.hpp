@@ -1,0 +1,30 @@
+#pragma once
+// Writing simulated sequences in the KITTI odometry layout, so that everything that reads real
+// KITTI data (open_kitti_sequence, read_kitti_bin) reads them too.
+
+#include <filesystem>
+#include <span>
+#include <vector>
+
+#include "hmap/core/types.hpp"
+
+namespace hmap {
+
+/// Writes `cloud` as little-endian float32 quadruples x, y, z, intensity (intensity 0), replacing
+/// `path` atomically. Throws hmap::Error when the file cannot be written.
+void write_kitti_bin(const std::filesystem::path& path, const PointCloud& cloud);
+
+/// Writes a sequence folder:
+///   dir/velodyne/NNNNNN.bin  one scan per frame (sensor frame), numbered from 000000
+///   dir/poses.txt            true T_world_sensor per frame, KITTI format (no calib.txt: the poses
+///                            are scanner poses as they are)
+///   dir/times.txt            one time [s] per frame
+///   dir/odometry.txt         odometry poses, KITTI format; skipped when `odometry_poses` is empty
+///   dir/truth.ply            the dense true surface points; skipped when `truth_points` is empty
+/// Creates `dir` and dir/velodyne. Throws hmap::Error when the counts of frames, poses, times and
+/// (non-empty) odometry differ, or a file cannot be written.
+void write_simulated_sequence(const std::filesystem::path& dir, std::span<const PointCloud> frames,
+                              const PoseList& true_poses, std::span<const double> times,
+                              const PoseList& odometry_poses, const PointCloud& truth_points);
+
+}  // namespace hmap
