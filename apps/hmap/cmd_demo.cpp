@@ -93,8 +93,8 @@ void run_demo(const DemoOptions& o) {
     << "Mapped with the true poses and the `" << (outdoor ? "outdoor" : "indoor") << "` preset (cell "
     << params.map.cell_size << " m, range " << params.map.min_range << "-" << params.map.max_range << " m): "
     << ms_map / static_cast<double>(rec.scans.size()) << " ms per scan; " << st.cells << " cells, " << st.hvoxels
-    << " HVoxels, " << st.memory_bytes << " bytes; extrusion removed " << removed << " HVoxels (among them the car "
-    << "that drives away).\n\n"
+    << " HVoxels, " << st.memory_bytes << " bytes; free space and extrusion removed " << removed
+    << " HVoxels.\n\n"
     << "| against what the sensor could see (`truth_seen.ply`) | value |\n| --- | --- |\n"
     << "| precision, exact voxels | " << m.exact.precision << " |\n"
     << "| recall, exact voxels | " << m.exact.recall << " |\n"
