@@ -226,3 +226,34 @@ TEST_F(CliTest, DemoWritesMapPicturesAndReport) {
 
 }  // namespace
 }  // namespace hmap
+
+#include <octomap/OcTree.h>
+
+namespace hmap {
+namespace {
+
+TEST_F(CliTest, ExportsAnOctoMapThatOctomapReadsBack) {
+  HMap map(indoor_preset());
+  map.column_for_update({3, -2}).push_back({0.0F, 0.4F, 50.0F, 0.9F});
+  map.column_for_update({3, -2}).push_back({1.0F, 1.02F, 5.0F, 0.5F});
+  map.column_for_update({-7, 5}).push_back({-0.3F, -0.3F, 1.0F, 0.3F});
+  save_hmap(path("m.hmap"), map);
+  const CmdResult r = run("export " + path("m.hmap") + " --bt " + path("m.bt"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  octomap::OcTree tree(path("m.bt"));
+  EXPECT_DOUBLE_EQ(tree.getResolution(), map.cell_size());
+  const auto occupied = [&](double x, double y, double z) {
+    const octomap::OcTreeNode* n = tree.search(x, y, z);
+    return n != nullptr && tree.isNodeOccupied(n);
+  };
+  const Eigen::Vector2d a = map.cell_center({3, -2});
+  const Eigen::Vector2d b = map.cell_center({-7, 5});
+  for (double z = 0.01; z < 0.4; z += 0.05) EXPECT_TRUE(occupied(a.x(), a.y(), z)) << z;
+  EXPECT_TRUE(occupied(a.x(), a.y(), 1.01));
+  EXPECT_FALSE(occupied(a.x(), a.y(), 0.7));  // the gap between the two HVoxels
+  EXPECT_TRUE(occupied(b.x(), b.y(), static_cast<double>(-0.3F)));  // the HVoxel's own float height
+  EXPECT_FALSE(occupied(b.x() + 1.0, b.y(), -0.3));
+}
+
+}  // namespace
+}  // namespace hmap
