@@ -2,7 +2,11 @@
 
 #include <octomap/OcTree.h>
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <cmath>
+#include <cstdio>
 #include <iostream>
 #include <sstream>
 
@@ -10,6 +14,37 @@
 #include "hmap/io/atomic_file.hpp"
 
 namespace hmap::cli {
+
+namespace {
+
+/// Sends file descriptor 2 to /dev/null for its lifetime (liboctomap prints with fprintf too).
+class QuietStderr {
+ public:
+  QuietStderr() : saved_(::dup(STDERR_FILENO)) {
+    std::fflush(stderr);
+    std::cerr.flush();
+    const int null = ::open("/dev/null", O_WRONLY);
+    if (null >= 0) {
+      ::dup2(null, STDERR_FILENO);
+      ::close(null);
+    }
+  }
+  ~QuietStderr() {
+    std::fflush(stderr);
+    std::cerr.flush();
+    if (saved_ >= 0) {
+      ::dup2(saved_, STDERR_FILENO);
+      ::close(saved_);
+    }
+  }
+  QuietStderr(const QuietStderr&) = delete;
+  QuietStderr& operator=(const QuietStderr&) = delete;
+
+ private:
+  int saved_;
+};
+
+}  // namespace
 
 std::size_t write_octomap_bt(const std::filesystem::path& path, const HMap& map) {
   const double res = map.cell_size();
@@ -30,11 +65,12 @@ std::size_t write_octomap_bt(const std::filesystem::path& path, const HMap& map)
   tree.updateInnerOccupancy();
   tree.prune();
   write_file_atomic(path, [&](std::ostream& out) {
-    // liboctomap reports progress on std::cerr; keep the terminal to our own one-line messages.
-    std::ostringstream chatter;
-    std::streambuf* const saved = std::cerr.rdbuf(chatter.rdbuf());
-    const bool ok = tree.writeBinary(out);
-    std::cerr.rdbuf(saved);
+    // liboctomap reports progress on stderr; keep the terminal to our own one-line messages.
+    bool ok = false;
+    {
+      const QuietStderr quiet;
+      ok = tree.writeBinary(out);
+    }
     if (!ok) throw Error("OctoMap could not serialise the tree");
   });
   return leaves;
