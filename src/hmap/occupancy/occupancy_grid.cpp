@@ -1,0 +1,45 @@
+#include "hmap/occupancy/occupancy_grid.hpp"
+
+#include <algorithm>
+
+#include "hmap/core/error.hpp"
+
+namespace hmap {
+
+OccupancyGrid::OccupancyGrid(double cell_size, double clamp_min, double clamp_max)
+    : cell_size_(cell_size), l_min_(0.0F), l_max_(0.0F) {
+  if (!(cell_size > 0.0)) throw Error("occupancy grid: cell size must be > 0");
+  if (!(clamp_min > 0.0 && clamp_min < 0.5 && clamp_max > 0.5 && clamp_max < 1.0)) {
+    throw Error("occupancy grid: clamping bounds must satisfy 0 < min < 0.5 < max < 1");
+  }
+  l_min_ = log_odds(clamp_min);
+  l_max_ = log_odds(clamp_max);
+}
+
+void OccupancyGrid::update(const CellKey& key, float measurement_log_odds) {
+  float& l = tiles_.find_or_create(tile_of(key)).log_odds[local_index(key)];
+  const float previous = std::isnan(l) ? 0.0F : l;
+  l = std::clamp(previous + measurement_log_odds, l_min_, l_max_);
+}
+
+std::optional<float> OccupancyGrid::log_odds_at(const CellKey& key) const {
+  const Tile* tile = tiles_.find(tile_of(key));
+  if (tile == nullptr) return std::nullopt;
+  const float l = tile->log_odds[local_index(key)];
+  if (std::isnan(l)) return std::nullopt;
+  return l;
+}
+
+std::optional<double> OccupancyGrid::probability_at(const CellKey& key) const {
+  const auto l = log_odds_at(key);
+  if (!l) return std::nullopt;
+  return probability(*l);
+}
+
+std::size_t OccupancyGrid::known_cells() const {
+  std::size_t n = 0;
+  for_each_cell([&](const CellKey&, float) { ++n; });
+  return n;
+}
+
+}  // namespace hmap

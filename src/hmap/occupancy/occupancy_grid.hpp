@@ -1,0 +1,68 @@
+#pragma once
+// The 2D occupancy grid kept alongside the HMAP (section IV-B): log-odds per cell with clamping,
+// in the same unbounded tiles as the HMAP.
+
+#include <array>
+#include <cmath>
+#include <limits>
+#include <optional>
+
+#include "hmap/core/params.hpp"
+#include "hmap/core/types.hpp"
+#include "hmap/maps/tile_index.hpp"
+
+namespace hmap {
+
+/// log(p / (1 − p)).
+[[nodiscard]] inline float log_odds(double p) { return static_cast<float>(std::log(p / (1.0 - p))); }
+/// The inverse of log_odds.
+[[nodiscard]] inline double probability(float l) { return 1.0 / (1.0 + std::exp(-static_cast<double>(l))); }
+
+class OccupancyGrid {
+ public:
+  static constexpr int kTileBits = 3;
+  static constexpr int kTileSize = 1 << kTileBits;
+  static constexpr int kTileCells = kTileSize * kTileSize;
+  /// A cell never observed holds NaN: unknown, as distinct from p = 0.5 after equal evidence.
+  struct Tile {
+    std::array<float, kTileCells> log_odds;
+    Tile() { log_odds.fill(std::numeric_limits<float>::quiet_NaN()); }
+  };
+
+  /// cell_size [m]; clamping bounds as probabilities (OccupancyParams::clamp_min / clamp_max).
+  OccupancyGrid(double cell_size, double clamp_min, double clamp_max);
+
+  [[nodiscard]] double cell_size() const { return cell_size_; }
+  /// eq. (3) with a prior of 0.5: l ← clamp(l + log_odds(p(c|z))); an unknown cell starts at 0.
+  void update(const CellKey& key, float measurement_log_odds);
+  /// Log-odds of a cell, or nullopt if it was never observed.
+  [[nodiscard]] std::optional<float> log_odds_at(const CellKey& key) const;
+  /// Occupancy probability of a cell, or nullopt if it was never observed.
+  [[nodiscard]] std::optional<double> probability_at(const CellKey& key) const;
+  /// Cells observed at least once.
+  [[nodiscard]] std::size_t known_cells() const;
+  /// Calls f(CellKey, float log_odds) for every observed cell.
+  template <typename F>
+  void for_each_cell(F&& f) const {
+    tiles_.for_each([&](const CellKey& t, const Tile& tile) {
+      for (int k = 0; k < kTileCells; ++k) {
+        if (!std::isnan(tile.log_odds[k])) f(CellKey{t.i * kTileSize + (k >> kTileBits), t.j * kTileSize + (k & (kTileSize - 1))}, tile.log_odds[k]);
+      }
+    });
+  }
+  [[nodiscard]] float clamp_min_log_odds() const { return l_min_; }
+  [[nodiscard]] float clamp_max_log_odds() const { return l_max_; }
+
+ private:
+  [[nodiscard]] static CellKey tile_of(const CellKey& k) { return {k.i >> kTileBits, k.j >> kTileBits}; }
+  [[nodiscard]] static int local_index(const CellKey& k) {
+    return ((k.i & (kTileSize - 1)) << kTileBits) | (k.j & (kTileSize - 1));
+  }
+
+  double cell_size_;
+  float l_min_;
+  float l_max_;
+  TileIndex<Tile> tiles_;
+};
+
+}  // namespace hmap

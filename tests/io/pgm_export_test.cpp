@@ -1,0 +1,65 @@
+#include "hmap/io/pgm_export.hpp"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <sstream>
+
+#include "common/test_data.hpp"
+#include "hmap/core/error.hpp"
+
+namespace hmap {
+namespace {
+
+std::string slurp(const std::filesystem::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), {}};
+}
+
+TEST(PgmExportTest, WritesWhatMapServerReads) {
+  const auto dir = test::temp_dir("pgm");
+  OccupancyGrid g(0.05, 0.12, 0.97);
+  g.update({-2, 10}, log_odds(0.9));  // occupied, the north-west corner
+  g.update({1, 8}, log_odds(0.1));    // free, the south-east corner
+  g.update({0, 9}, 0.0F);             // observed, 0.5: unknown
+  write_pgm_map(dir / "map.pgm", g);
+  const std::string pgm = slurp(dir / "map.pgm");
+  std::istringstream in(pgm);
+  std::string magic, comment;
+  int w = 0, h = 0, maxval = 0;
+  in >> magic;
+  in.ignore();
+  std::getline(in, comment);
+  in >> w >> h >> maxval;
+  in.ignore();
+  EXPECT_EQ(magic, "P5");
+  EXPECT_EQ(w, 4);  // i from -2 to 1
+  EXPECT_EQ(h, 3);  // j from 8 to 10
+  EXPECT_EQ(maxval, 255);
+  const std::string px = pgm.substr(static_cast<std::size_t>(in.tellg()));
+  ASSERT_EQ(px.size(), 12U);
+  EXPECT_EQ(static_cast<unsigned char>(px[0 * 4 + 0]), 0);    // (-2, 10): row 0, column 0
+  EXPECT_EQ(static_cast<unsigned char>(px[2 * 4 + 3]), 254);  // (1, 8): last row, last column
+  EXPECT_EQ(static_cast<unsigned char>(px[1 * 4 + 2]), 205);  // (0, 9): unknown
+  EXPECT_EQ(static_cast<unsigned char>(px[0 * 4 + 3]), 205);  // never observed
+  const std::string yaml = slurp(dir / "map.yaml");
+  EXPECT_NE(yaml.find("image: map.pgm\n"), std::string::npos) << yaml;
+  EXPECT_NE(yaml.find("resolution: 0.05"), std::string::npos) << yaml;
+  EXPECT_NE(yaml.find("origin: [-0.1, 0.4"), std::string::npos) << yaml;
+  EXPECT_NE(yaml.find("negate: 0\n"), std::string::npos);
+  EXPECT_NE(yaml.find("occupied_thresh: 0.65"), std::string::npos);
+  EXPECT_NE(yaml.find("free_thresh: 0.196"), std::string::npos);
+  EXPECT_NE(yaml.find("mode: trinary"), std::string::npos);
+  std::filesystem::remove_all(dir);
+}
+
+TEST(PgmExportTest, EmptyGridIsAnError) {
+  const auto dir = test::temp_dir("pgm_empty");
+  OccupancyGrid g(0.05, 0.12, 0.97);
+  EXPECT_THROW(write_pgm_map(dir / "m", g), Error);
+  EXPECT_FALSE(std::filesystem::exists(dir / "m.pgm"));
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace hmap

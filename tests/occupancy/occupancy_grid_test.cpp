@@ -1,0 +1,54 @@
+#include "hmap/occupancy/occupancy_grid.hpp"
+
+#include <gtest/gtest.h>
+
+#include "hmap/core/error.hpp"
+
+namespace hmap {
+namespace {
+
+TEST(OccupancyGridTest, UnknownUntilObserved) {
+  OccupancyGrid g(0.1, 0.12, 0.97);
+  EXPECT_FALSE(g.probability_at({0, 0}).has_value());
+  EXPECT_EQ(g.known_cells(), 0U);
+  g.update({-3, 7}, 0.0F);
+  ASSERT_TRUE(g.probability_at({-3, 7}).has_value());
+  EXPECT_DOUBLE_EQ(*g.probability_at({-3, 7}), 0.5);  // observed, no evidence either way
+  EXPECT_FALSE(g.probability_at({-3, 6}).has_value());
+  EXPECT_EQ(g.known_cells(), 1U);
+}
+
+TEST(OccupancyGridTest, LogOddsAddAndClamp) {
+  OccupancyGrid g(0.1, 0.12, 0.97);
+  const float hit = log_odds(0.7);
+  g.update({1, 1}, hit);
+  g.update({1, 1}, hit);
+  // eq. (3): two hits of 0.7 give log(0.7/0.3) * 2.
+  EXPECT_NEAR(*g.log_odds_at({1, 1}), 2.0 * std::log(0.7 / 0.3), 1e-6);
+  for (int k = 0; k < 50; ++k) g.update({1, 1}, hit);
+  EXPECT_NEAR(*g.probability_at({1, 1}), 0.97, 1e-6);  // clamped as OctoMap clamps
+  for (int k = 0; k < 100; ++k) g.update({1, 1}, log_odds(0.3));
+  EXPECT_NEAR(*g.probability_at({1, 1}), 0.12, 1e-6);
+}
+
+TEST(OccupancyGridTest, ForEachVisitsObservedCellsWithTheirKeys) {
+  OccupancyGrid g(0.25, 0.12, 0.97);
+  const std::vector<CellKey> keys = {{0, 0}, {-1, -1}, {8, -9}, {100, 3}};
+  for (const auto& k : keys) g.update(k, 0.5F);
+  std::vector<CellKey> seen;
+  g.for_each_cell([&](const CellKey& k, float l) {
+    seen.push_back(k);
+    EXPECT_FLOAT_EQ(l, 0.5F);
+  });
+  EXPECT_EQ(seen.size(), keys.size());
+  for (const auto& k : keys) EXPECT_NE(std::find(seen.begin(), seen.end(), k), seen.end());
+}
+
+TEST(OccupancyGridTest, BadParametersAreRejected) {
+  EXPECT_THROW(OccupancyGrid(0.0, 0.12, 0.97), Error);
+  EXPECT_THROW(OccupancyGrid(0.1, 0.6, 0.97), Error);
+  EXPECT_THROW(OccupancyGrid(0.1, 0.12, 1.0), Error);
+}
+
+}  // namespace
+}  // namespace hmap
