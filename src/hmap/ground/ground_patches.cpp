@@ -1,0 +1,437 @@
+#include "hmap/ground/ground_patches.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <random>
+#include <string>
+#include <utility>
+
+#include <Eigen/QR>
+#include <nanoflann.hpp>
+
+#include "hmap/core/error.hpp"
+
+namespace hmap {
+
+// ---------------------------------------------------------------------------------------------
+// GroundModel: a nanoflann kd-tree over the (x, y) patch centres.
+
+struct GroundModel::Index {
+  /// nanoflann's dataset adaptor: the patch centres seen as 2D points.
+  struct Centres {
+    const std::vector<GroundPatch>* patches;
+    [[nodiscard]] std::size_t kdtree_get_point_count() const { return patches->size(); }
+    [[nodiscard]] double kdtree_get_pt(std::size_t i, std::size_t dim) const {
+      return (*patches)[i].center[static_cast<Eigen::Index>(dim)];
+    }
+    template <class Box>
+    bool kdtree_get_bbox(Box& /*box*/) const {
+      return false;  // let nanoflann compute it
+    }
+  };
+  using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, Centres>,
+                                                   Centres, 2>;
+
+  // The tree keeps references to `centres` and `patches`: an Index never moves (held by pointer).
+  explicit Index(std::vector<GroundPatch> p)
+      : patches(std::move(p)), centres{&patches},
+        tree(2, centres, nanoflann::KDTreeSingleIndexAdaptorParams(10)) {}
+  Index(const Index&) = delete;
+  Index& operator=(const Index&) = delete;
+
+  std::vector<GroundPatch> patches;
+  Centres centres;
+  Tree tree;
+};
+
+GroundModel::GroundModel() = default;
+
+GroundModel::GroundModel(std::vector<GroundPatch> patches) {
+  if (!patches.empty()) index_ = std::make_unique<Index>(std::move(patches));
+}
+
+GroundModel::GroundModel(const GroundModel& other)
+    : index_(other.index_ ? std::make_unique<Index>(other.index_->patches) : nullptr) {}
+
+GroundModel::GroundModel(GroundModel&& other) noexcept = default;
+
+GroundModel& GroundModel::operator=(GroundModel other) noexcept {
+  index_ = std::move(other.index_);
+  return *this;
+}
+
+GroundModel::~GroundModel() = default;
+
+const std::vector<GroundPatch>& GroundModel::patches() const {
+  static const std::vector<GroundPatch> kNone;
+  return index_ ? index_->patches : kNone;
+}
+
+const GroundPatch* GroundModel::nearest(double x, double y) const {
+  if (!index_) return nullptr;
+  const double query[2] = {x, y};
+  std::uint32_t i = 0;
+  double distance_sq = 0.0;
+  if (index_->tree.knnSearch(query, 1, &i, &distance_sq) == 0) return nullptr;
+  return &index_->patches[i];
+}
+
+std::vector<int> GroundModel::within(double x, double y, double radius) const {
+  std::vector<int> out;
+  if (!index_ || !(radius >= 0.0)) return out;
+  const double query[2] = {x, y};
+  std::vector<std::pair<std::uint32_t, double>> found;
+  // L2_Simple works on squared distances.
+  index_->tree.radiusSearch(query, radius * radius, found, nanoflann::SearchParams(32, 0.0F, true));
+  out.reserve(found.size());
+  for (const auto& [i, distance_sq] : found) out.push_back(static_cast<int>(i));
+  return out;
+}
+
+std::optional<double> GroundModel::ground_height(double x, double y) const {
+  const GroundPatch* patch = nearest(x, y);
+  if (patch == nullptr) return std::nullopt;
+  return patch->height_at(x, y);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Alg. 4.
+
+namespace {
+
+/// getHeightPoints keeps HVoxel tops within kBandFactor · E_th of the parent's plane: wide enough
+/// for the slopes and steps the tests then judge, narrow enough to leave ceilings and table tops.
+constexpr double kBandFactor = 3.0;
+/// patchGeneration needs this many height points for a plane...
+constexpr std::size_t kMinPoints = 5;
+/// ...and at least this share of the window's cells measured (not interpolated): IDW alone would
+/// extend the border cells of the data into flat patches hanging beyond the map's edge.
+constexpr double kMinMeasuredShare = 0.25;
+/// A window whose points leave an RMS residual above E_th · kMaxRmsFactor is not a plane: a step
+/// of height h inside a window leaves an RMS of about h / 4, so steps above ~E_th are refused
+/// here instead of being smoothed into a slope and climbed.
+constexpr double kMaxRmsFactor = 0.25;
+/// Expansions closer than kMinSpacing · d_n to a patch already in the tree add nothing.
+constexpr double kMinSpacing = 0.5;
+/// Start-patch candidates tried after the hint itself (cells of the chosen histogram bin).
+constexpr std::size_t kMaxSeedTries = 16;
+/// The neighbourhood of the hint doubles up to this many times d_n while it holds no HVoxel.
+constexpr double kMaxHistogramRadius = 16.0;
+
+void validate(const Eigen::Vector3d& hint, const GroundParams& p, double window) {
+  const auto require = [](bool ok, const std::string& what) {
+    if (!ok) throw Error("extract_ground: " + what);
+  };
+  require(hint.allFinite(), "the hint must be finite");
+  require(p.iterations >= 0, "ground.iterations (K) must be >= 0");
+  require(std::isfinite(p.normal_threshold) && p.normal_threshold >= 0.0,
+          "ground.normal_threshold (N_th) must be finite and >= 0");
+  require(std::isfinite(p.elevation_threshold) && p.elevation_threshold > 0.0,
+          "ground.elevation_threshold (E_th) must be finite and > 0");
+  require(std::isfinite(p.expansion_distance) && p.expansion_distance > 0.0,
+          "ground.expansion_distance (d_n) must be finite and > 0");
+  require(std::isfinite(window) && window > 0.0, "the window half-size must be finite and > 0");
+}
+
+/// A horizontal plane through `center`: the reference of the start patch.
+GroundPatch horizontal_patch(const Eigen::Vector3d& center, double half_size) {
+  return {center, Eigen::Vector3d::UnitZ(), half_size, -1};
+}
+
+/// The points of one window (getHeightPoints) and how many of its cells held data.
+struct HeightPoints {
+  std::vector<Eigen::Vector3d> points;
+  int measured_cells = 0;  ///< cells with a top in the band
+  int window_cells = 0;    ///< cells whose centre lies in the window
+};
+
+class PatchExplorer {
+ public:
+  PatchExplorer(const HMap& map, const GroundParams& params, double window)
+      : map_(map), params_(params), window_(window), rng_(params.seed) {}
+
+  GroundResult run(const Eigen::Vector3d& hint) {
+    GroundResult result;
+    // Alg. 4 lines 1-3.
+    const auto start = neighborhood_histogram(hint);
+    if (!start || !initialize_tree(*start)) return result;
+    result.seeded = true;
+
+    const double d_n = params_.expansion_distance;
+    for (int k = 0; k < params_.iterations; ++k) {
+      ++result.iterations;
+      const Eigen::Vector2d x_rand = sample_random_direction();
+      const int near = nearest_node(x_rand);
+      const Eigen::Vector2d x_expansion = project_to(patches_[near], x_rand);
+      if (!model_.within(x_expansion.x(), x_expansion.y(), kMinSpacing * d_n).empty()) {
+        ++result.skipped;
+        continue;
+      }
+      const auto points = get_height_points(x_expansion, patches_[near]);
+      auto p_local = patch_generation(points, x_expansion);
+      if (!p_local) {
+        ++result.rejected;
+        continue;
+      }
+      // Lines 10-20: connect to x_near, else to the first neighbour within d_n that agrees.
+      int parent = connects(*p_local, patches_[near]) ? near : -1;
+      if (parent < 0) {
+        for (const int node : nearest_nodes(x_expansion)) {
+          if (node != near && connects(*p_local, patches_[node])) {
+            parent = node;
+            break;
+          }
+        }
+      }
+      if (parent < 0) {
+        ++result.rejected;
+        continue;
+      }
+      p_local->parent = parent;
+      add_node(*p_local);
+      update_search_space(x_expansion);
+      ++result.accepted;
+    }
+    result.patches = std::move(patches_);
+    return result;
+  }
+
+ private:
+  struct Start {
+    Eigen::Vector3d p0;                      ///< hint (x, y) at the height of the chosen bin
+    std::vector<Eigen::Vector2d> fallbacks;  ///< cells of that bin, nearest to the hint first
+  };
+
+  /// Line 2: histogram of the HVoxel tops below the hint in the cells around it, in bins of E_th;
+  /// the most populated bin (the lowest on ties) gives the start height.
+  std::optional<Start> neighborhood_histogram(const Eigen::Vector3d& hint) const {
+    struct Bin {
+      int count = 0;
+      double sum = 0.0;
+      std::vector<Eigen::Vector2d> cells;
+    };
+    const double bin_size = params_.elevation_threshold;
+    for (double radius = params_.expansion_distance;
+         radius <= kMaxHistogramRadius * params_.expansion_distance; radius *= 2.0) {
+      std::map<long long, Bin> bins;
+      for_each_cell(hint.head<2>(), radius, [&](const Eigen::Vector2d& xy, const Column& column) {
+        if ((xy - hint.head<2>()).norm() > radius) return;
+        for (const HVoxel& v : column.hvoxels()) {
+          if (v.z_max > hint.z()) continue;
+          Bin& bin = bins[static_cast<long long>(std::floor(v.z_max / bin_size))];
+          ++bin.count;
+          bin.sum += v.z_max;
+          if (bin.cells.empty() || bin.cells.back() != xy) bin.cells.push_back(xy);
+        }
+      });
+      if (bins.empty()) continue;
+      const Bin* best = nullptr;
+      for (const auto& [index, bin] : bins) {  // ascending heights: ties keep the lowest
+        if (best == nullptr || bin.count > best->count) best = &bin;
+      }
+      Start start{{hint.x(), hint.y(), best->sum / best->count}, best->cells};
+      std::sort(start.fallbacks.begin(), start.fallbacks.end(),
+                [&](const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+                  return (a - hint.head<2>()).squaredNorm() < (b - hint.head<2>()).squaredNorm();
+                });
+      if (start.fallbacks.size() > kMaxSeedTries) start.fallbacks.resize(kMaxSeedTries);
+      return start;
+    }
+    return std::nullopt;
+  }
+
+  /// Line 3: the root patch at p0, fitted against the horizontal plane at the start height; when
+  /// the hint's own window holds too few points, the nearest cells of the chosen bin are tried.
+  bool initialize_tree(const Start& start) {
+    std::vector<Eigen::Vector2d> candidates{start.p0.head<2>()};
+    candidates.insert(candidates.end(), start.fallbacks.begin(), start.fallbacks.end());
+    for (const Eigen::Vector2d& xy : candidates) {
+      const GroundPatch reference = horizontal_patch({xy.x(), xy.y(), start.p0.z()}, window_);
+      auto root = patch_generation(get_height_points(xy, reference), xy);
+      if (root && std::abs(root->center.z() - start.p0.z()) <= params_.elevation_threshold) {
+        add_node(*root);
+        search_center_ = xy;
+        search_half_extent_ = 2.0 * params_.expansion_distance;
+        return true;
+      }
+    }
+    return false;
+  }
+
+  /// Line 5: x_rand uniform in the search square.
+  Eigen::Vector2d sample_random_direction() {
+    std::uniform_real_distribution<double> u(-search_half_extent_, search_half_extent_);
+    const double dx = u(rng_);
+    const double dy = u(rng_);
+    return search_center_ + Eigen::Vector2d(dx, dy);
+  }
+
+  /// Line 6: the tree node nearest to x_rand.
+  int nearest_node(const Eigen::Vector2d& x_rand) const {
+    const GroundPatch* near = model_.nearest(x_rand.x(), x_rand.y());
+    return static_cast<int>(near - model_.patches().data());
+  }
+
+  /// Line 7, eq. (2): one step of d_n from x_near toward x_rand.
+  Eigen::Vector2d project_to(const GroundPatch& x_near, const Eigen::Vector2d& x_rand) const {
+    const Eigen::Vector2d from = x_near.center.head<2>();
+    const double angle = std::atan2(x_rand.y() - from.y(), x_rand.x() - from.x());
+    return from + params_.expansion_distance * Eigen::Vector2d(std::cos(angle), std::sin(angle));
+  }
+
+  /// Line 8: one height per window cell. Tops within the band of the reference plane are kept
+  /// (all of them when a cell holds several); a cell with none takes the IDW (power 2) of its 8
+  /// neighbours' tops in the band, when there are any.
+  HeightPoints get_height_points(const Eigen::Vector2d& center,
+                                 const GroundPatch& reference) const {
+    HeightPoints out;
+    std::vector<Eigen::Vector3d>& points = out.points;
+    const double band = kBandFactor * params_.elevation_threshold;
+    const double s = map_.cell_size();
+    const auto first = map_.key_of(center.x() - window_, center.y() - window_);
+    const auto last = map_.key_of(center.x() + window_, center.y() + window_);
+    if (!first || !last) return out;
+    std::vector<double> tops;
+    for (std::int32_t i = first->i; i <= last->i; ++i) {
+      for (std::int32_t j = first->j; j <= last->j; ++j) {
+        const CellKey key{i, j};
+        const Eigen::Vector2d xy = map_.cell_center(key);
+        if ((xy - center).cwiseAbs().maxCoeff() > window_ + 1e-9) continue;
+        ++out.window_cells;
+        tops.clear();
+        tops_in_band(key, reference, band, tops);
+        for (const double z : tops) points.emplace_back(xy.x(), xy.y(), z);
+        if (!tops.empty()) {
+          ++out.measured_cells;
+          continue;
+        }
+        double weighted = 0.0;
+        double weights = 0.0;
+        for (std::int32_t di = -1; di <= 1; ++di) {
+          for (std::int32_t dj = -1; dj <= 1; ++dj) {
+            if (di == 0 && dj == 0) continue;
+            tops.clear();
+            tops_in_band({i + di, j + dj}, reference, band, tops);
+            const double w = 1.0 / (s * s * (di * di + dj * dj));  // 1 / d^2
+            for (const double z : tops) {
+              weighted += w * z;
+              weights += w;
+            }
+          }
+        }
+        if (weights > 0.0) points.emplace_back(xy.x(), xy.y(), weighted / weights);
+      }
+    }
+    return out;
+  }
+
+  /// Line 9: least-squares plane z = a x + b y + c through the points (coordinates taken
+  /// relative to the window centre); none for too few points or measured cells, collinear
+  /// points or a large RMS.
+  std::optional<GroundPatch> patch_generation(const HeightPoints& height_points,
+                                              const Eigen::Vector2d& center) const {
+    const std::vector<Eigen::Vector3d>& points = height_points.points;
+    if (points.size() < kMinPoints ||
+        height_points.measured_cells < kMinMeasuredShare * height_points.window_cells) {
+      return std::nullopt;
+    }
+    const auto n = static_cast<Eigen::Index>(points.size());
+    Eigen::MatrixX3d A(n, 3);
+    Eigen::VectorXd z(n);
+    for (Eigen::Index r = 0; r < n; ++r) {
+      const Eigen::Vector3d& p = points[static_cast<std::size_t>(r)];
+      A.row(r) << p.x() - center.x(), p.y() - center.y(), 1.0;
+      z(r) = p.z();
+    }
+    const Eigen::ColPivHouseholderQR<Eigen::MatrixX3d> qr(A);
+    if (qr.rank() < 3) return std::nullopt;
+    const Eigen::Vector3d abc = qr.solve(z);
+    const double rms = std::sqrt((A * abc - z).squaredNorm() / static_cast<double>(n));
+    if (!(rms <= kMaxRmsFactor * params_.elevation_threshold)) return std::nullopt;
+    const Eigen::Vector3d normal = Eigen::Vector3d(-abc.x(), -abc.y(), 1.0).normalized();
+    return GroundPatch{{center.x(), center.y(), abc.z()}, normal, window_, -1};
+  }
+
+  /// Lines 10-11 (and 17-18): normals within N_th, read as 1 − |n1·n2| <= N_th, and the new
+  /// centre within E_th of the node's plane evaluated at that centre.
+  bool connects(const GroundPatch& p_local, const GroundPatch& node) const {
+    const double normal_gap = 1.0 - std::abs(p_local.normal.dot(node.normal));
+    const double elevation_gap =
+        std::abs(p_local.center.z() - node.height_at(p_local.center.x(), p_local.center.y()));
+    return normal_gap <= params_.normal_threshold && elevation_gap <= params_.elevation_threshold;
+  }
+
+  /// Line 15: the nodes within d_n of x_expansion, nearest first.
+  std::vector<int> nearest_nodes(const Eigen::Vector2d& x_expansion) const {
+    return model_.within(x_expansion.x(), x_expansion.y(), params_.expansion_distance);
+  }
+
+  /// Lines 13 and 20: the search square moves to the mean of the accepted centres and grows to
+  /// keep two expansion steps of margin around x_expansion.
+  void update_search_space(const Eigen::Vector2d& x_expansion) {
+    center_sum_ += x_expansion;
+    search_center_ = center_sum_ / static_cast<double>(patches_.size());
+    search_half_extent_ =
+        std::max(search_half_extent_, (x_expansion - search_center_).cwiseAbs().maxCoeff() +
+                                          2.0 * params_.expansion_distance);
+  }
+
+  /// Adds a node to the tree; rebuilding the kd-tree costs O(n log n), fine for K in the hundreds.
+  void add_node(const GroundPatch& patch) {
+    if (patches_.empty()) center_sum_ = patch.center.head<2>();
+    patches_.push_back(patch);
+    model_ = GroundModel(patches_);
+  }
+
+  void tops_in_band(const CellKey& key, const GroundPatch& reference, double band,
+                    std::vector<double>& out) const {
+    const Column* column = map_.column(key);
+    if (column == nullptr || column->empty()) return;
+    const Eigen::Vector2d xy = map_.cell_center(key);
+    const double z_ref = reference.height_at(xy.x(), xy.y());
+    for (const HVoxel& v : column->hvoxels()) {
+      if (std::abs(v.z_max - z_ref) < band) out.push_back(v.z_max);
+    }
+  }
+
+  /// Calls f(cell centre, column) for the non-empty columns of the square of half-size
+  /// `radius` around `center`.
+  template <typename F>
+  void for_each_cell(const Eigen::Vector2d& center, double radius, F&& f) const {
+    const auto first = map_.key_of(center.x() - radius, center.y() - radius);
+    const auto last = map_.key_of(center.x() + radius, center.y() + radius);
+    if (!first || !last) return;
+    for (std::int32_t i = first->i; i <= last->i; ++i) {
+      for (std::int32_t j = first->j; j <= last->j; ++j) {
+        const Column* column = map_.column(CellKey{i, j});
+        if (column != nullptr && !column->empty()) f(map_.cell_center({i, j}), *column);
+      }
+    }
+  }
+
+  const HMap& map_;
+  const GroundParams& params_;
+  double window_;
+  std::mt19937_64 rng_;
+  std::vector<GroundPatch> patches_;  // the tree G
+  GroundModel model_;                 // kd-tree over patches_
+  Eigen::Vector2d center_sum_ = Eigen::Vector2d::Zero();
+  Eigen::Vector2d search_center_ = Eigen::Vector2d::Zero();
+  double search_half_extent_ = 0.0;
+};
+
+}  // namespace
+
+GroundResult extract_ground(const HMap& map, const Eigen::Vector3d& hint,
+                            const GroundParams& params, double window) {
+  validate(hint, params, window);
+  return PatchExplorer(map, params, window).run(hint);
+}
+
+GroundResult extract_ground(const HMap& map, const Eigen::Vector3d& hint,
+                            const GroundParams& params) {
+  return extract_ground(map, hint, params, params.expansion_distance / 2.0);
+}
+
+}  // namespace hmap

@@ -1,0 +1,77 @@
+#pragma once
+// Ground extraction by RRT patch exploration (section IV-A, Alg. 4, eq. 2).
+//
+// The ground is a tree of patches: small local planes fitted by least squares to the HVoxel tops
+// of a square window. The tree grows from a start patch found under a hint (the robot) and only
+// connects a new patch to a node whose normal and elevation agree with it, so steps higher than
+// E_th and table tops are not taken for ground.
+
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "hmap/core/params.hpp"
+#include "hmap/maps/hmap.hpp"
+
+namespace hmap {
+
+/// A local ground plane: a square of half-size `half_size` centred on `center`.
+struct GroundPatch {
+  Eigen::Vector3d center;  ///< [m] map frame; z is the plane's height at (x, y)
+  Eigen::Vector3d normal;  ///< unit, z > 0
+  double half_size;        ///< [m] half the edge of the window the plane was fitted to
+  int parent;              ///< index of the node it connects to in the tree, -1 for the root
+
+  /// Height of the patch's plane at (x, y) [m].
+  [[nodiscard]] double height_at(double x, double y) const {
+    return center.z() - (normal.x() * (x - center.x()) + normal.y() * (y - center.y())) / normal.z();
+  }
+};
+
+/// What Alg. 4 produced: the tree of patches and how the K iterations went.
+struct GroundResult {
+  std::vector<GroundPatch> patches;  ///< patches[0] is the root when `seeded`
+  int iterations = 0;                ///< iterations run (K, or 0 when not seeded)
+  int accepted = 0;                  ///< candidates connected to the tree
+  int rejected = 0;                  ///< candidates without a plane or without a valid connection
+  int skipped = 0;                   ///< expansions closer than d_n / 2 to a patch already there
+  bool seeded = false;               ///< false when no start patch could be found near the hint
+};
+
+/// Queries on a set of patches through a kd-tree of their (x, y) centres.
+class GroundModel {
+ public:
+  GroundModel();
+  explicit GroundModel(std::vector<GroundPatch> patches);
+  GroundModel(const GroundModel& other);
+  GroundModel(GroundModel&& other) noexcept;
+  GroundModel& operator=(GroundModel other) noexcept;
+  ~GroundModel();
+
+  [[nodiscard]] const std::vector<GroundPatch>& patches() const;
+  [[nodiscard]] bool empty() const { return index_ == nullptr; }
+  [[nodiscard]] std::size_t size() const { return empty() ? 0 : patches().size(); }
+
+  /// The patch whose centre is nearest to (x, y) in 2D, or nullptr when there is none.
+  [[nodiscard]] const GroundPatch* nearest(double x, double y) const;
+  /// Indices of the patches whose centre lies within `radius` [m] of (x, y), nearest first.
+  [[nodiscard]] std::vector<int> within(double x, double y, double radius) const;
+  /// Height [m] of the nearest patch's plane at (x, y); nullopt when there is no patch.
+  [[nodiscard]] std::optional<double> ground_height(double x, double y) const;
+
+ private:
+  struct Index;
+  std::unique_ptr<Index> index_;  // null when there are no patches
+};
+
+/// Alg. 4 from `hint` (e.g. the robot position, z at the sensor height or below) with windows of
+/// half-size `window` [m]. Throws hmap::Error for non-finite hints or out-of-domain parameters.
+[[nodiscard]] GroundResult extract_ground(const HMap& map, const Eigen::Vector3d& hint,
+                                          const GroundParams& params, double window);
+/// As above with windows of half-size d_n / 2: neighbouring patches then just touch.
+[[nodiscard]] GroundResult extract_ground(const HMap& map, const Eigen::Vector3d& hint,
+                                          const GroundParams& params);
+
+}  // namespace hmap
