@@ -1,0 +1,43 @@
+#pragma once
+// HVoxel to 2D occupancy update (section IV-B, eq. 3-4): each scan's HVoxels, judged against the
+// local ground patch, update the log-odds of the cells along the ray from the sensor to them.
+
+#include <unordered_map>
+
+#include "hmap/core/params.hpp"
+#include "hmap/ground/ground_patches.hpp"
+#include "hmap/maps/scan_hvoxels.hpp"
+#include "hmap/occupancy/occupancy_grid.hpp"
+
+namespace hmap {
+
+/// How one HVoxel counts for the 2D grid, by eq. (4)'s cases.
+enum class HVoxelRole : std::uint8_t {
+  kIgnored,   ///< entirely above z+ or below z− of the local ground: p = 0.5 (ceilings, crowns)
+  kObstacle,  ///< its top farther than d_pth from the local ground
+  kGround,    ///< its top within d_pth of the local ground: drivable
+};
+
+/// The role of `v` over a local ground at height `ground_z` [m].
+[[nodiscard]] HVoxelRole hvoxel_role(const HVoxel& v, double ground_z, const OccupancyParams& p);
+
+/// eq. (4) for one HVoxel at signed distance `delta` [m] = |c| − |v| along the ray (negative
+/// before the HVoxel's cell): obstacle max(ρ, 0.5)·exp(−δ²/2σ²), ground
+/// K_g + (0.5 − K_g)/(1 + exp(−δ/d_pth)), ignored 0.5.
+[[nodiscard]] double inverse_sensor_model(HVoxelRole role, double density, double delta, const OccupancyParams& p);
+
+struct OccupancyUpdateStats {
+  std::size_t rays = 0;        ///< scan cells with at least one HVoxel that is not ignored
+  std::size_t cells = 0;       ///< grid cells updated
+  std::size_t no_ground = 0;   ///< scan cells skipped: no ground patch to judge them by
+};
+
+/// Updates `grid` with one scan. Each cell on the path from the sensor's cell to a scan cell
+/// (both included) takes p(c|z) = max over that cell's HVoxels of eq. (4); a cell reached by
+/// several rays keeps the largest p of the scan (a hit outranks a pass-through), and is then
+/// updated once by eq. (3). p is floored at K_g: in front of an obstacle the obstacle term tends
+/// to 0, which would otherwise be certainty of free space from a single scan.
+OccupancyUpdateStats update_occupancy(const ScanHVoxels& scan, const GroundModel& ground, const Params& params,
+                                      OccupancyGrid& grid);
+
+}  // namespace hmap

@@ -1,0 +1,86 @@
+#include "hmap/occupancy/occupancy_update.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace hmap {
+namespace {
+
+Params params() {
+  Params p = indoor_preset();
+  p.map.cell_size = 0.1;
+  p.occupancy.z_plus = 0.5;  // a robot 0.5 m tall passes under tables
+  p.occupancy.z_minus = -0.2;
+  return p;
+}
+
+GroundModel flat_ground() {
+  return GroundModel({GroundPatch{{0.0, 0.0, 0.0}, {0.0, 0.0, 1.0}, 100.0, -1}});
+}
+
+HVoxel hv(float lo, float hi, float density) { return {lo, hi, 10.0F, density}; }
+
+TEST(OccupancyUpdateTest, RolesByHand) {
+  const OccupancyParams op = params().occupancy;  // z+ 0.5, z− −0.2, d_pth 0.03
+  EXPECT_EQ(hvoxel_role(hv(0.7F, 0.75F, 0.9F), 0.0, op), HVoxelRole::kIgnored);   // table top above z+
+  EXPECT_EQ(hvoxel_role(hv(-0.6F, -0.4F, 0.9F), 0.0, op), HVoxelRole::kIgnored);  // a pit below z−
+  EXPECT_EQ(hvoxel_role(hv(0.0F, 2.0F, 0.9F), 0.0, op), HVoxelRole::kObstacle);   // wall
+  EXPECT_EQ(hvoxel_role(hv(0.3F, 0.45F, 0.9F), 0.0, op), HVoxelRole::kObstacle);  // a box under z+
+  EXPECT_EQ(hvoxel_role(hv(-0.01F, 0.01F, 0.9F), 0.0, op), HVoxelRole::kGround);
+  EXPECT_EQ(hvoxel_role(hv(1.01F, 1.02F, 0.9F), 1.0, op), HVoxelRole::kGround);   // relative to the patch
+}
+
+TEST(OccupancyUpdateTest, InverseSensorModelByHand) {
+  const OccupancyParams op = params().occupancy;  // σ 0.02, K_g 0.3, d_pth 0.03
+  EXPECT_DOUBLE_EQ(inverse_sensor_model(HVoxelRole::kObstacle, 0.9, 0.0, op), 0.9);
+  EXPECT_DOUBLE_EQ(inverse_sensor_model(HVoxelRole::kObstacle, 0.2, 0.0, op), 0.5);  // max(ρ, 0.5)
+  EXPECT_NEAR(inverse_sensor_model(HVoxelRole::kObstacle, 0.9, 0.02, op), 0.9 * std::exp(-0.5), 1e-12);
+  EXPECT_DOUBLE_EQ(inverse_sensor_model(HVoxelRole::kGround, 0.9, 0.0, op), 0.3 + 0.2 / 2.0);
+  EXPECT_NEAR(inverse_sensor_model(HVoxelRole::kGround, 0.9, -1.0, op), 0.3, 1e-12);
+  EXPECT_DOUBLE_EQ(inverse_sensor_model(HVoxelRole::kIgnored, 0.9, 0.0, op), 0.5);
+}
+
+// A sensor at (0.05, 0.05, 1) sees: a wall cell at x = 3, the floor along the way, a table top
+// (above z+) over floor at (1.55, 1.05), and a ceiling patch at (2.05, -0.95).
+TEST(OccupancyUpdateTest, WallOccupiedFloorFreeTableAndCeilingIgnored) {
+  ScanHVoxels scan;
+  scan.origin_map = {0.05, 0.05, 1.0};
+  auto add = [&](CellKey key, std::vector<HVoxel> vs) {
+    scan.cells.push_back({key, static_cast<std::uint32_t>(scan.hvoxels.size()), static_cast<std::uint32_t>(vs.size())});
+    for (const auto& v : vs) scan.hvoxels.push_back(v);
+  };
+  add({30, 0}, {hv(0.0F, 2.0F, 0.95F)});                          // wall
+  for (int i = 5; i < 30; ++i) add({i, 0}, {hv(0.0F, 0.01F, 0.9F)});  // floor in front of it
+  add({15, 10}, {hv(-0.005F, 0.005F, 0.9F), hv(0.7F, 0.75F, 0.9F)});  // floor + table top
+  add({20, -10}, {hv(2.5F, 2.6F, 0.9F)});                        // ceiling only
+  OccupancyGrid grid(0.1, 0.12, 0.97);
+  const auto stats = update_occupancy(scan, flat_ground(), params(), grid);
+  EXPECT_EQ(stats.rays, scan.cells.size() - 1);  // the ceiling cell casts no ray
+  ASSERT_TRUE(grid.probability_at({30, 0}));
+  EXPECT_GT(*grid.probability_at({30, 0}), 0.9);  // the wall: ρ = 0.95
+  for (int i = 5; i < 30; ++i) {
+    ASSERT_TRUE(grid.probability_at({i, 0})) << i;
+    EXPECT_LT(*grid.probability_at({i, 0}), 0.5) << i;  // drivable floor
+  }
+  ASSERT_TRUE(grid.probability_at({15, 10}));
+  EXPECT_LT(*grid.probability_at({15, 10}), 0.5);  // under the table: free for a 0.5 m robot
+  EXPECT_FALSE(grid.probability_at({20, -10}).has_value());  // the ceiling says nothing
+  // Repeated scans make the evidence firmer, up to the clamp.
+  for (int k = 0; k < 40; ++k) update_occupancy(scan, flat_ground(), params(), grid);
+  EXPECT_NEAR(*grid.probability_at({30, 0}), 0.97, 1e-6);
+  EXPECT_NEAR(*grid.probability_at({10, 0}), 0.12, 1e-6);  // each scan adds log-odds of <= 0.4: down to the clamp
+}
+
+TEST(OccupancyUpdateTest, NoGroundNoEvidence) {
+  ScanHVoxels scan;
+  scan.cells.push_back({{3, 3}, 0, 1});
+  scan.hvoxels.push_back(hv(0.0F, 1.0F, 0.9F));
+  OccupancyGrid grid(0.1, 0.12, 0.97);
+  const auto stats = update_occupancy(scan, GroundModel(), params(), grid);
+  EXPECT_EQ(stats.no_ground, 1U);
+  EXPECT_EQ(grid.known_cells(), 0U);
+}
+
+}  // namespace
+}  // namespace hmap
