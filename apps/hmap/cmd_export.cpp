@@ -1,11 +1,15 @@
 // hmap export: a saved map into formats other tools read.
 
+#include <algorithm>
 #include <cstdio>
 
 #include "cli_common.hpp"
 #include "hmap/core/error.hpp"
 #include "hmap/io/hmap_file.hpp"
+#include "hmap/ground/ground_patches.hpp"
+#include "hmap/io/pgm_export.hpp"
 #include "hmap/io/ply_export.hpp"
+#include "hmap/occupancy/occupancy_update.hpp"
 #include "octomap_export.hpp"
 
 namespace hmap::cli {
@@ -16,13 +20,59 @@ struct ExportOptions {
   std::string map;
   std::string ply;
   std::string bt;
+  std::string pgm;
+  std::vector<double> ground_hint;
+  int ground_iterations = 0;
   bool points = false;
   double z_step = 0.0;
 };
 
+/// The 2D occupancy of a saved map as map_server PGM + YAML: ground patches by Alg. 4 from a hint
+/// (given, or the middle of the map at a low height), then each column judged by eq. (4)'s cases.
+void export_pgm(const HMap& map, const ExportOptions& o) {
+  const MapStats st = map.stats();
+  if (st.hvoxels == 0) throw Error(o.map + ": the map is empty, nothing to export");
+  Params params = map.params();
+  Eigen::Vector3d hint;
+  if (o.ground_hint.size() == 3) {
+    hint = {o.ground_hint[0], o.ground_hint[1], o.ground_hint[2]};
+  } else {
+    std::vector<float> tops;
+    map.for_each_column([&](const CellKey&, const Column& c) { tops.push_back(c[0].z_max); });
+    std::sort(tops.begin(), tops.end());
+    const Eigen::Vector3d mid = st.bounds.center();
+    hint = {mid.x(), mid.y(), tops[tops.size() / 5] + 0.5};  // above the low fifth of the lowest tops
+  }
+  // K of the paper (400) explores a few hundred square metres; grow it with the map's area.
+  const double d_n = params.ground.expansion_distance;
+  const double area = st.bounds.sizes().x() * st.bounds.sizes().y();
+  params.ground.iterations = o.ground_iterations > 0
+                                 ? o.ground_iterations
+                                 : std::clamp(static_cast<int>(2.0 * area / (d_n * d_n)), params.ground.iterations, 4000);
+  const auto t0 = Clock::now();
+  const GroundResult ground = extract_ground(map, hint, params.ground);
+  if (!ground.seeded) {
+    throw Error(o.map + ": no ground found near the hint (" + std::to_string(hint.x()) + ", " + std::to_string(hint.y()) +
+                ", " + std::to_string(hint.z()) + "); give --ground-hint X Y Z near the floor");
+  }
+  const GroundModel model(ground.patches);
+  const OccupancyGrid grid = occupancy_from_map(map, model, params, 2.0 * d_n);
+  write_pgm_map(o.pgm, grid);
+  std::size_t occupied = 0, free_cells = 0;
+  grid.for_each_cell([&](const CellKey&, float l) { (l > 0.0F ? occupied : free_cells) += 1; });
+  std::printf("wrote %s.pgm + .yaml: %zu occupied and %zu free cells of %.3f m, from %zu ground patches "
+              "(%d RRT iterations, %.1f s); cells without a ground patch within %.2f m are unknown\n",
+              std::filesystem::path(o.pgm).replace_extension().string().c_str(), occupied, free_cells, map.cell_size(),
+              ground.patches.size(), params.ground.iterations, ms_since(t0) / 1000.0, 2.0 * d_n);
+}
+
 void run_export(const ExportOptions& o) {
-  if (o.ply.empty() && o.bt.empty()) throw Error("nothing to export: give --ply OUT.ply and/or --bt OUT.bt");
+  if (o.ply.empty() && o.bt.empty() && o.pgm.empty()) {
+    throw Error("nothing to export: give --ply OUT.ply, --bt OUT.bt and/or --pgm OUT");
+  }
   const HMap map = load_hmap(o.map);
+  if (!o.pgm.empty()) export_pgm(map, o);
+  if (o.ply.empty() && o.bt.empty()) return;
   if (!o.bt.empty()) {
     const std::size_t leaves = write_octomap_bt(o.bt, map);
     std::printf("wrote %zu occupied OctoMap leaves (resolution %.3f m) to %s\n", leaves, map.cell_size(), o.bt.c_str());
@@ -46,6 +96,10 @@ void add_export_command(CLI::App& app) {
   auto* cmd = app.add_subcommand("export", "Write a map as PLY (HVoxel boxes, or the recovered points) or as an OctoMap .bt");
   cmd->add_option("map", opts->map, "Map file (.hmap)")->required();
   cmd->add_option("--ply", opts->ply, "Output PLY file");
+  cmd->add_option("--pgm", opts->pgm, "Output 2D occupancy as ROS map_server PGM + YAML (OUT.pgm, OUT.yaml)");
+  cmd->add_option("--ground-hint", opts->ground_hint, "A point near the floor, X Y Z [m], to start the ground search")
+      ->expected(3);
+  cmd->add_option("--ground-iterations", opts->ground_iterations, "RRT iterations K (default: grows with the map area)");
   cmd->add_option("--bt", opts->bt, "Output OctoMap binary tree (.bt), for octovis and the octomap tools");
   cmd->add_flag("--points", opts->points, "Write the height-upsampled point cloud instead of boxes");
   cmd->add_option("--z-step", opts->z_step, "Vertical spacing of recovered points [m] (default: the cell size)");

@@ -222,6 +222,17 @@ TEST_F(CliTest, DemoWritesMapPicturesAndReport) {
   const CmdResult render = run("render " + path("demo/map.hmap") + " --trajectory " + path("demo/sequence/poses.txt") +
                                " --out " + path("t.png"));
   EXPECT_EQ(render.code, 0) << render.out;
+  // The 2D occupancy as map_server reads it (the ground search starts in the middle of the map).
+  const CmdResult pgm = run("export " + path("demo/map.hmap") + " --pgm " + path("grid"));
+  ASSERT_EQ(pgm.code, 0) << pgm.out;
+  std::ifstream yaml(dir_ / "grid.yaml");
+  const std::string y((std::istreambuf_iterator<char>(yaml)), {});
+  EXPECT_NE(y.find("image: grid.pgm"), std::string::npos) << y;
+  std::ifstream img(dir_ / "grid.pgm", std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(img)), {});
+  EXPECT_EQ(bytes.substr(0, 3), "P5\n");
+  EXPECT_NE(bytes.find(static_cast<char>(0)), std::string::npos) << "some cell is occupied";
+  EXPECT_NE(bytes.find(static_cast<char>(254)), std::string::npos) << "some cell is free";
 }
 
 }  // namespace

@@ -73,3 +73,32 @@ OccupancyUpdateStats update_occupancy(const ScanHVoxels& scan, const GroundModel
 }
 
 }  // namespace hmap
+
+namespace hmap {
+
+OccupancyGrid occupancy_from_map(const HMap& map, const GroundModel& ground, const Params& params,
+                                 double max_ground_distance) {
+  const OccupancyParams& op = params.occupancy;
+  OccupancyGrid grid(map.cell_size(), op.clamp_min, op.clamp_max);
+  map.for_each_column([&](const CellKey& key, const Column& column) {
+    const Eigen::Vector2d xy = map.cell_center(key);
+    const GroundPatch* patch = ground.nearest(xy.x(), xy.y());
+    if (patch == nullptr || (patch->center.head<2>() - xy).norm() > max_ground_distance) return;
+    const double g = patch->height_at(xy.x(), xy.y());
+    bool obstacle = false;
+    bool drivable = false;
+    for (const HVoxel& v : column) {
+      const HVoxelRole role = hvoxel_role(v, g, op);
+      obstacle = obstacle || role == HVoxelRole::kObstacle;
+      drivable = drivable || role == HVoxelRole::kGround;
+    }
+    if (obstacle) {
+      grid.update(key, grid.clamp_max_log_odds());
+    } else if (drivable) {
+      grid.update(key, grid.clamp_min_log_odds());
+    }
+  });
+  return grid;
+}
+
+}  // namespace hmap

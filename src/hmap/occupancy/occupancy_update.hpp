@@ -6,6 +6,7 @@
 
 #include "hmap/core/params.hpp"
 #include "hmap/ground/ground_patches.hpp"
+#include "hmap/maps/hmap.hpp"
 #include "hmap/maps/scan_hvoxels.hpp"
 #include "hmap/occupancy/occupancy_grid.hpp"
 
@@ -39,5 +40,18 @@ struct OccupancyUpdateStats {
 /// to 0, which would otherwise be certainty of free space from a single scan.
 OccupancyUpdateStats update_occupancy(const ScanHVoxels& scan, const GroundModel& ground, const Params& params,
                                       OccupancyGrid& grid);
+
+}  // namespace hmap
+
+namespace hmap {
+
+/// The 2D grid derived from a finished map alone, when its scans are not at hand (`hmap export
+/// --pgm` of a saved map): every column is judged by eq. (4)'s cases at its own cell — an
+/// obstacle HVoxel makes the cell occupied (clamp_max), drivable ground alone makes it free
+/// (clamp_min), ignored HVoxels (above z+, below z−) say nothing — so columns with only a ceiling
+/// or a tree crown stay unknown. Columns without a ground patch nearer than `max_ground_distance`
+/// [m] stay unknown too.
+[[nodiscard]] OccupancyGrid occupancy_from_map(const HMap& map, const GroundModel& ground, const Params& params,
+                                               double max_ground_distance);
 
 }  // namespace hmap
