@@ -80,9 +80,7 @@ void run_demo(const DemoOptions& o) {
 
   // 5. Report.
   const MapStats st = map.stats();
-  double length = 0.0;
-  for (std::size_t k = 1; k < rec.T_world_sensor.size(); ++k)
-    length += (rec.T_world_sensor[k].translation() - rec.T_world_sensor[k - 1].translation()).norm();
+  const double length = path_length(rec.T_world_sensor);
   std::ostringstream r;
   r.setf(std::ios::fixed);
   r.precision(3);

@@ -27,12 +27,7 @@ void run_simulate(const SimulateOptions& o) {
   progress.finish();
   write_simulated_sequence(o.out, rec.scans, rec.T_world_sensor, rec.times, rec.odometry, rec.truth_surface);
   write_points_ply(std::filesystem::path(o.out) / "truth_seen.ply", rec.truth_seen);
-  const double length = [&] {
-    double l = 0.0;
-    for (std::size_t k = 1; k < rec.T_world_sensor.size(); ++k)
-      l += (rec.T_world_sensor[k].translation() - rec.T_world_sensor[k - 1].translation()).norm();
-    return l;
-  }();
+  const double length = path_length(rec.T_world_sensor);
   std::printf("Simulated %zu %s frames of '%s' (seed %llu) along %.1f m in %.1f s: %s points. Wrote %s: "
               "velodyne/*.bin, poses.txt (truth), times.txt, odometry.txt (noisy), truth.ply (%s surface "
               "points every %.2f m), truth_seen.ply (%s noise-free returns).\n",

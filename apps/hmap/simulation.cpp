@@ -72,6 +72,12 @@ sim::Trajectory path_for(const SimulationSpec& spec, double height) {
 
 }  // namespace
 
+double path_length(const PoseList& poses) {
+  double length = 0.0;
+  for (std::size_t k = 1; k < poses.size(); ++k) length += (poses[k].translation() - poses[k - 1].translation()).norm();
+  return length;
+}
+
 SimulatedRecording simulate(const SimulationSpec& spec, const std::function<void(std::size_t, std::size_t)>& progress) {
   if (spec.stride == 0) throw Error("--stride must be at least 1");
   if (!(spec.truth_spacing >= 0.005)) throw Error("--truth-spacing must be at least 0.005 m");

@@ -32,6 +32,9 @@ struct SimulatedRecording {
   std::size_t points = 0;
 };
 
+/// Length of the path through the poses' positions [m].
+[[nodiscard]] double path_length(const PoseList& poses);
+
 /// Runs the simulation; `progress(done, total)` is called after each frame.
 [[nodiscard]] SimulatedRecording simulate(const SimulationSpec& spec,
                                           const std::function<void(std::size_t, std::size_t)>& progress = {});
