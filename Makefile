@@ -5,6 +5,8 @@ BUILD      ?= build
 BUILD_SAN  ?= build-sanitize
 DATA       ?= $(abspath ../shared/data)
 JOBS       ?= $(shell nproc)
+# A compiler cache speeds rebuilds when one is installed; nothing needs it.
+LAUNCHER   := $(if $(shell command -v ccache 2>/dev/null),-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
 DEBS := cmake ninja-build g++ pkg-config libeigen3-dev libnanoflann-dev libtbb-dev libcli11-dev \
         nlohmann-json3-dev libyaml-cpp-dev libzstd-dev liblzf-dev libxxhash-dev libpng-dev \
         liboctomap-dev libgtest-dev libgmock-dev libbenchmark-dev
@@ -22,7 +24,7 @@ deps:
 	fi
 
 $(BUILD)/build.ninja: | deps
-	cmake -S . -B $(BUILD) -G Ninja -DCMAKE_BUILD_TYPE=Release -DHMAP_DATA_DIR=$(DATA)
+	cmake -S . -B $(BUILD) -G Ninja -DCMAKE_BUILD_TYPE=Release -DHMAP_DATA_DIR=$(DATA) $(LAUNCHER)
 
 build: deps $(BUILD)/build.ninja
 	cmake --build $(BUILD) -j $(JOBS)
@@ -48,7 +50,7 @@ test: build
 # The same suite under AddressSanitizer and UndefinedBehaviorSanitizer.
 test-sanitize: deps
 	cmake -S . -B $(BUILD_SAN) -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DHMAP_SANITIZE=ON \
-	  -DHMAP_BUILD_BENCH=OFF -DHMAP_DATA_DIR=$(DATA)
+	  -DHMAP_BUILD_BENCH=OFF -DHMAP_DATA_DIR=$(DATA) $(LAUNCHER)
 	cmake --build $(BUILD_SAN) -j $(JOBS)
 	cd $(BUILD_SAN) && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 \
 	  UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 ctest --output-on-failure -j $(JOBS)
