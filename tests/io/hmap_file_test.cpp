@@ -16,6 +16,7 @@
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <random>
+#include <tuple>
 #include <string>
 #include <vector>
 
@@ -352,7 +353,7 @@ TEST_F(HMapFileTest, LayoutIsAsDocumented) {
   const std::string f = read_bytes(dir_ / "m.hmap");
   ASSERT_GE(f.size(), 48U);
   EXPECT_EQ(f.substr(0, 8), kMagic);
-  EXPECT_EQ(get_u32(f, 8), 1U);
+  EXPECT_EQ(get_u32(f, 8), 2U);
   EXPECT_EQ(get_u32(f, 12), 0U);
   const std::uint64_t json_size = get_u64(f, 16);
   const auto json = nlohmann::json::parse(f.substr(24, json_size));
@@ -366,8 +367,9 @@ TEST_F(HMapFileTest, LayoutIsAsDocumented) {
   const std::uint64_t compressed_size = get_u64(f, 32 + json_size);
   EXPECT_EQ(f.size(), 48 + json_size + compressed_size);
   EXPECT_EQ(get_u64(f, f.size() - 8), XXH64(f.data(), f.size() - 8, 0));
-  // Payload size: 8 + per stored tile (8 + one varint count per cell) + 16 per HVoxel.
-  std::uint64_t expected = 8;
+  // Payload size: 8 + per stored tile (8 + one varint count per cell) + 16 per HVoxel, + the two
+  // empty counts of the ground and grid sections.
+  std::uint64_t expected = 8 + 16;
   map.for_each_tile([&](const CellKey&, const HMap::Tile& tile) {
     std::uint64_t tile_bytes = 8;
     bool stored = false;
@@ -711,4 +713,142 @@ TEST_F(HMapFileTest, BadPayloadsAreRejected) {
 }
 
 }  // namespace
+
+// ---- version 2: the ground patches and the 2D grid of the hybrid map ----
+
+namespace {
+
+void put_f64(std::string& out, double v) { put_u64(out, std::bit_cast<std::uint64_t>(v)); }
+
+struct PatchSpec {
+  double cx, cy, cz, nx, ny, nz, half;
+  std::int32_t parent;
+};
+
+/// The version-2 sections: patches, then grid tiles given as (tile i, tile j, {local: log-odds}).
+std::string sections_of(const std::vector<PatchSpec>& patches,
+                        const std::vector<std::tuple<std::int32_t, std::int32_t, std::vector<std::pair<int, float>>>>& tiles) {
+  std::string s;
+  put_u64(s, patches.size());
+  for (const PatchSpec& p : patches) {
+    for (const double v : {p.cx, p.cy, p.cz, p.nx, p.ny, p.nz, p.half}) put_f64(s, v);
+    put_i32(s, p.parent);
+  }
+  put_u64(s, tiles.size());
+  for (const auto& [ti, tj, cells] : tiles) {
+    put_i32(s, ti);
+    put_i32(s, tj);
+    for (int local = 0; local < OccupancyGrid::kTileCells; ++local) {
+      float l = std::numeric_limits<float>::quiet_NaN();
+      for (const auto& [index, value] : cells) {
+        if (index == local) l = value;
+      }
+      put_f32(s, l);
+    }
+  }
+  return s;
+}
+
+std::string v2_file(const std::string& sections) {
+  FileParts p = parts_with_payload(payload_of(kValidTiles) + sections);
+  p.version = 2;
+  return assemble(p);
+}
+
+const std::vector<PatchSpec> kValidPatches = {{0, 0, 0, 0, 0, 1, 0.45, -1}, {0.9, 0, 0.05, 0, 0, 1, 0.45, 0}};
+
+}  // namespace
+
+TEST_F(HMapFileTest, HybridLayersRoundTrip) {
+  const HMap map = handmade_map();
+  const Params& params = map.params();
+  OccupancyGrid grid(map.cell_size(), params.occupancy.clamp_min, params.occupancy.clamp_max);
+  grid.update({0, 0}, 2.0F);
+  grid.update({-9, 17}, -0.7F);
+  grid.update({100000, -100000}, 50.0F);  // clamped to clamp_max
+  const std::vector<GroundPatch> ground = {{{1.0, 2.0, -0.5}, Eigen::Vector3d(0.1, 0.0, 1.0).normalized(), 0.45, -1},
+                                           {{1.9, 2.0, -0.4}, {0.0, 0.0, 1.0}, 0.45, 0}};
+  save_hmap(dir_ / "h.hmap", map, ground, &grid);
+  const MapFile back = load_map_file(dir_ / "h.hmap");
+  EXPECT_EQ(back.map.stats().hvoxels, map.stats().hvoxels);
+  ASSERT_EQ(back.ground.size(), 2U);
+  EXPECT_EQ(back.ground[0].center, ground[0].center);
+  EXPECT_EQ(back.ground[0].normal, ground[0].normal);
+  EXPECT_EQ(back.ground[1].parent, 0);
+  EXPECT_EQ(back.ground[0].parent, -1);
+  ASSERT_TRUE(back.grid.has_value());
+  EXPECT_EQ(back.grid->known_cells(), 3U);
+  EXPECT_EQ(back.grid->log_odds_at({0, 0}), grid.log_odds_at({0, 0}));
+  EXPECT_EQ(back.grid->log_odds_at({-9, 17}), grid.log_odds_at({-9, 17}));
+  EXPECT_EQ(back.grid->log_odds_at({100000, -100000}), grid.clamp_max_log_odds());
+  EXPECT_FALSE(back.grid->log_odds_at({1, 0}).has_value());
+
+  // Without layers: no patches, no grid; load_hmap reads both kinds.
+  save_hmap(dir_ / "plain.hmap", map);
+  const MapFile plain = load_map_file(dir_ / "plain.hmap");
+  EXPECT_TRUE(plain.ground.empty());
+  EXPECT_FALSE(plain.grid.has_value());
+  EXPECT_EQ(load_hmap(dir_ / "h.hmap").stats().hvoxels, map.stats().hvoxels);
+
+  // A grid at another cell size or a patch pointing forward is refused before anything is written.
+  OccupancyGrid coarse(2 * map.cell_size(), 0.12, 0.97);
+  EXPECT_THROW(save_hmap(dir_ / "x.hmap", map, ground, &coarse), Error);
+  std::vector<GroundPatch> forward = ground;
+  forward[0].parent = 1;
+  EXPECT_THROW(save_hmap(dir_ / "x.hmap", map, forward, nullptr), Error);
+  EXPECT_FALSE(std::filesystem::exists(dir_ / "x.hmap"));
+}
+
+TEST_F(HMapFileTest, VersionOneFilesHaveNoLayers) {
+  FileParts p = parts_with_payload(payload_of(kValidTiles));
+  p.version = 1;
+  write_bytes(dir_ / "v1.hmap", assemble(p));
+  const MapFile f = load_map_file(dir_ / "v1.hmap");
+  EXPECT_EQ(f.map.stats().hvoxels, 4U);
+  EXPECT_TRUE(f.ground.empty());
+  EXPECT_FALSE(f.grid.has_value());
+  // Version 3 is from the future.
+  p.version = 3;
+  EXPECT_TRUE(rejected(dir_ / "v3.hmap", assemble(p), "unsupported format version 3"));
+}
+
+TEST_F(HMapFileTest, HybridSectionsAreChecked) {
+  const auto path = dir_ / "bad.hmap";
+  // The valid crafted file loads.
+  write_bytes(path, v2_file(sections_of(kValidPatches, {{0, 0, {{0, 1.0F}, {63, -1.0F}}}})));
+  const MapFile ok = load_map_file(path);
+  EXPECT_EQ(ok.ground.size(), 2U);
+  ASSERT_TRUE(ok.grid.has_value());
+  EXPECT_EQ(ok.grid->known_cells(), 2U);
+  EXPECT_EQ(ok.grid->log_odds_at({7, 7}), -1.0F);
+
+  auto patches = kValidPatches;
+  patches[1].parent = 1;
+  EXPECT_TRUE(rejected(path, v2_file(sections_of(patches, {})), "earlier patch"));
+  patches = kValidPatches;
+  patches[0].nz = 2.0;
+  EXPECT_TRUE(rejected(path, v2_file(sections_of(patches, {})), "unit normal"));
+  patches = kValidPatches;
+  patches[0].cx = std::numeric_limits<double>::infinity();
+  EXPECT_TRUE(rejected(path, v2_file(sections_of(patches, {})), "finite"));
+  patches = kValidPatches;
+  patches[1].half = 0.0;
+  EXPECT_TRUE(rejected(path, v2_file(sections_of(patches, {})), "half size"));
+  EXPECT_TRUE(rejected(path, v2_file(sections_of(kValidPatches, {{0, 0, {{5, 30.0F}}}})), "clamping bounds"));
+  EXPECT_TRUE(rejected(path, v2_file(sections_of(kValidPatches, {{0, 0, {}}})), "no known cell"));
+  EXPECT_TRUE(rejected(path, v2_file(sections_of(kValidPatches, {{0, 1, {{0, 0.0F}}}, {0, 0, {{0, 0.0F}}}})),
+                       "increasing key order"));
+  EXPECT_TRUE(rejected(path, v2_file(sections_of(kValidPatches, {{1 << 27, 0, {{0, 0.0F}}}})), "tile keys"));
+  // Absurd counts are refused from the bytes that remain, before any allocation.
+  std::string huge;
+  put_u64(huge, std::uint64_t{1} << 40);
+  EXPECT_TRUE(rejected(path, v2_file(huge), "ground patch count"));
+  std::string huge_grid;
+  put_u64(huge_grid, 0);
+  put_u64(huge_grid, std::uint64_t{1} << 40);
+  EXPECT_TRUE(rejected(path, v2_file(huge_grid), "occupancy tile count"));
+  // A version-2 file must hold both sections.
+  EXPECT_TRUE(rejected(path, v2_file(""), "ends early"));
+}
+
 }  // namespace hmap

@@ -81,6 +81,8 @@ std::vector<ParamRef> param_refs(Params& p) {
   r.push_back(ref("occupancy.z_minus", "m", "z-, lower detection limit below the ground", o.z_minus));
   r.push_back(ref("occupancy.clamp_min", "-", "lowest occupancy probability kept", o.clamp_min));
   r.push_back(ref("occupancy.clamp_max", "-", "highest occupancy probability kept", o.clamp_max));
+  r.push_back(ref("occupancy.ground_reach", "m", "farthest an HVoxel may be from a ground patch to be judged",
+                  o.ground_reach));
   auto& s = p.slam;
   r.push_back(ref_int("slam.interpolation_window", "cells", "IDW window of eq. (12)",
                       s.interpolation_window));
@@ -144,6 +146,7 @@ void validate(const Params& p) {
           "in (0, 0.5)");
   require(o.clamp_max > 0.5 && o.clamp_max < 1.0, "occupancy.clamp_max", o.clamp_max,
           "in (0.5, 1)");
+  require(o.ground_reach > 0.0, "occupancy.ground_reach", o.ground_reach, "> 0");
   const auto& s = p.slam;
   require(s.interpolation_window >= 1 && s.interpolation_window % 2 == 1,
           "slam.interpolation_window", s.interpolation_window, "an odd number >= 1");

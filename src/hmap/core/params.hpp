@@ -53,6 +53,8 @@ struct OccupancyParams {
   double z_minus = -0.5;                   ///< z− [m] below the local ground: lower HVoxels ignored
   double clamp_min = 0.12;                 ///< [-] probability floor (OctoMap's default clamping)
   double clamp_max = 0.97;                 ///< [-] probability ceiling
+  double ground_reach = 3.0;               ///< [m] HVoxels farther than this beyond the square of
+                                           ///< their nearest ground patch are not judged
 };
 
 /// SLAM by Gauss-Newton matching on the HMAP (section IV-C, eq. 5-12).

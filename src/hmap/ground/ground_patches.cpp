@@ -5,9 +5,13 @@
 #include <map>
 #include <random>
 #include <string>
+#include <unordered_set>
 #include <utility>
 
 #include <Eigen/QR>
+// nanoflann's dynamic index trips GCC 12's -Wmaybe-uninitialized inside the header (root_bbox is
+// filled before use); silence that one warning for this file only.
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 #include <nanoflann.hpp>
 
 #include "hmap/core/error.hpp"
@@ -30,8 +34,10 @@ struct GroundModel::Index {
       return false;  // let nanoflann compute it
     }
   };
-  using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, Centres>,
-                                                   Centres, 2>;
+  // The dynamic variant (a forest of static trees of sizes 2^k) takes one patch at a time in
+  // amortized O(log² n): Alg. 4 adds a node per accepted candidate and queries in between.
+  using Tree = nanoflann::KDTreeSingleIndexDynamicAdaptor<nanoflann::L2_Simple_Adaptor<double, Centres>,
+                                                          Centres, 2, std::uint32_t>;
 
   // The tree keeps references to `centres` and `patches`: an Index never moves (held by pointer).
   explicit Index(std::vector<GroundPatch> p)
@@ -68,13 +74,31 @@ const std::vector<GroundPatch>& GroundModel::patches() const {
   return index_ ? index_->patches : kNone;
 }
 
-const GroundPatch* GroundModel::nearest(double x, double y) const {
-  if (!index_) return nullptr;
+int GroundModel::add(const GroundPatch& patch) {
+  if (!index_) {
+    index_ = std::make_unique<Index>(std::vector<GroundPatch>{patch});
+    return 0;
+  }
+  index_->patches.push_back(patch);
+  const auto i = static_cast<std::uint32_t>(index_->patches.size() - 1);
+  index_->tree.addPoints(i, i);
+  return static_cast<int>(i);
+}
+
+int GroundModel::nearest_index(double x, double y) const {
+  if (!index_) return -1;
   const double query[2] = {x, y};
   std::uint32_t i = 0;
   double distance_sq = 0.0;
-  if (index_->tree.knnSearch(query, 1, &i, &distance_sq) == 0) return nullptr;
-  return &index_->patches[i];
+  nanoflann::KNNResultSet<double, std::uint32_t> result(1);
+  result.init(&i, &distance_sq);
+  index_->tree.findNeighbors(result, query, nanoflann::SearchParams());
+  return result.size() == 0 ? -1 : static_cast<int>(i);
+}
+
+const GroundPatch* GroundModel::nearest(double x, double y) const {
+  const int i = nearest_index(x, y);
+  return i < 0 ? nullptr : &index_->patches[static_cast<std::size_t>(i)];
 }
 
 std::vector<int> GroundModel::within(double x, double y, double radius) const {
@@ -83,10 +107,21 @@ std::vector<int> GroundModel::within(double x, double y, double radius) const {
   const double query[2] = {x, y};
   std::vector<std::pair<std::uint32_t, double>> found;
   // L2_Simple works on squared distances.
-  index_->tree.radiusSearch(query, radius * radius, found, nanoflann::SearchParams(32, 0.0F, true));
+  nanoflann::RadiusResultSet<double, std::uint32_t> result(radius * radius, found);
+  index_->tree.findNeighbors(result, query, nanoflann::SearchParams());
+  std::sort(found.begin(), found.end(), [](const auto& a, const auto& b) {
+    return a.second < b.second || (a.second == b.second && a.first < b.first);
+  });
   out.reserve(found.size());
   for (const auto& [i, distance_sq] : found) out.push_back(static_cast<int>(i));
   return out;
+}
+
+bool GroundModel::any_within(double x, double y, double radius) const {
+  const int i = nearest_index(x, y);
+  if (i < 0) return false;
+  const Eigen::Vector2d c = index_->patches[static_cast<std::size_t>(i)].center.head<2>();
+  return (c - Eigen::Vector2d(x, y)).squaredNorm() <= radius * radius;
 }
 
 std::optional<double> GroundModel::ground_height(double x, double y) const {
@@ -148,37 +183,73 @@ struct HeightPoints {
 
 class PatchExplorer {
  public:
-  PatchExplorer(const HMap& map, const GroundParams& params, double window)
-      : map_(map), params_(params), window_(window), rng_(params.seed) {}
+  /// Explores `tree` (Alg. 4's G, possibly holding patches of earlier runs) with `rng`.
+  PatchExplorer(const HMap& map, const GroundParams& params, double window, GroundModel& tree,
+                std::mt19937_64& rng)
+      : map_(map), params_(params), window_(window), model_(tree), rng_(rng) {}
 
+  /// Alg. 4 as the paper runs it: a tree seeded under the hint, K iterations, the search square
+  /// following the accepted centres.
   GroundResult run(const Eigen::Vector3d& hint) {
     GroundResult result;
     // Alg. 4 lines 1-3.
-    const auto start = neighborhood_histogram(hint);
-    if (!start || !initialize_tree(*start)) return result;
+    if (!seed(hint)) return result;
     result.seeded = true;
+    iterate(params_.iterations, /*follow_tree=*/true, result);
+    return result;
+  }
 
+  /// The same iterations on a tree that persists across scans: x_rand is drawn from the square of
+  /// half-size `reach` around the hint (the part of the map the latest scan can have changed),
+  /// and a root is seeded under the hint only when no patch lies within d_n of it yet.
+  GroundResult grow(const Eigen::Vector3d& hint, double reach) {
+    GroundResult result;
+    if (!model_.any_within(hint.x(), hint.y(), reach)) {
+      if (!seed(hint)) return result;
+      result.seeded = true;
+    }
+    search_center_ = hint.head<2>();
+    search_half_extent_ = reach;
+    iterate(params_.iterations, /*follow_tree=*/false, result);
+    return result;
+  }
+
+ private:
+  /// Lines 2-3, over neighbourhoods doubling from d_n: the first one whose histogram yields a
+  /// root that fits. Around a sensor the nearest neighbourhoods hold only the inner rim of the
+  /// range hole, where no plane fits.
+  bool seed(const Eigen::Vector3d& hint) {
+    for (double radius = params_.expansion_distance; radius <= kMaxHistogramRadius * params_.expansion_distance;
+         radius *= 2.0) {
+      const auto start = neighborhood_histogram(hint, radius);
+      if (start && initialize_tree(*start)) return true;
+    }
+    return false;
+  }
+
+  void iterate(int iterations, bool follow_tree, GroundResult& result) {
     const double d_n = params_.expansion_distance;
-    for (int k = 0; k < params_.iterations; ++k) {
+    for (int k = 0; k < iterations; ++k) {
       ++result.iterations;
       const Eigen::Vector2d x_rand = sample_random_direction();
       const int near = nearest_node(x_rand);
-      const Eigen::Vector2d x_expansion = project_to(patches_[near], x_rand);
-      if (!model_.within(x_expansion.x(), x_expansion.y(), kMinSpacing * d_n).empty()) {
+      const GroundPatch x_near = model_.patches()[static_cast<std::size_t>(near)];
+      const Eigen::Vector2d x_expansion = project_to(x_near, x_rand);
+      if (model_.any_within(x_expansion.x(), x_expansion.y(), kMinSpacing * d_n)) {
         ++result.skipped;
         continue;
       }
-      const auto points = get_height_points(x_expansion, patches_[near]);
+      const auto points = get_height_points(x_expansion, x_near);
       auto p_local = patch_generation(points, x_expansion);
       if (!p_local) {
         ++result.rejected;
         continue;
       }
       // Lines 10-20: connect to x_near, else to the first neighbour within d_n that agrees.
-      int parent = connects(*p_local, patches_[near]) ? near : -1;
+      int parent = connects(*p_local, x_near) ? near : -1;
       if (parent < 0) {
         for (const int node : nearest_nodes(x_expansion)) {
-          if (node != near && connects(*p_local, patches_[node])) {
+          if (node != near && connects(*p_local, model_.patches()[static_cast<std::size_t>(node)])) {
             parent = node;
             break;
           }
@@ -190,30 +261,26 @@ class PatchExplorer {
       }
       p_local->parent = parent;
       add_node(*p_local);
-      update_search_space(x_expansion);
+      if (follow_tree) update_search_space(x_expansion);
       ++result.accepted;
     }
-    result.patches = std::move(patches_);
-    return result;
   }
 
- private:
   struct Start {
     Eigen::Vector3d p0;                      ///< hint (x, y) at the height of the chosen bin
     std::vector<Eigen::Vector2d> fallbacks;  ///< cells of that bin, nearest to the hint first
   };
 
-  /// Line 2: histogram of the HVoxel tops below the hint in the cells around it, in bins of E_th;
+  /// Line 2: histogram of the HVoxel tops below the hint in the cells within `radius`, in bins of E_th;
   /// the most populated bin (the lowest on ties) gives the start height.
-  std::optional<Start> neighborhood_histogram(const Eigen::Vector3d& hint) const {
+  std::optional<Start> neighborhood_histogram(const Eigen::Vector3d& hint, double radius) const {
     struct Bin {
       int count = 0;
       double sum = 0.0;
       std::vector<Eigen::Vector2d> cells;
     };
     const double bin_size = params_.elevation_threshold;
-    for (double radius = params_.expansion_distance;
-         radius <= kMaxHistogramRadius * params_.expansion_distance; radius *= 2.0) {
+    {
       std::map<long long, Bin> bins;
       for_each_cell(hint.head<2>(), radius, [&](const Eigen::Vector2d& xy, const Column& column) {
         if ((xy - hint.head<2>()).norm() > radius) return;
@@ -225,17 +292,38 @@ class PatchExplorer {
           if (bin.cells.empty() || bin.cells.back() != xy) bin.cells.push_back(xy);
         }
       });
-      if (bins.empty()) continue;
+      if (bins.empty()) return std::nullopt;
       const Bin* best = nullptr;
       for (const auto& [index, bin] : bins) {  // ascending heights: ties keep the lowest
         if (best == nullptr || bin.count > best->count) best = &bin;
       }
       Start start{{hint.x(), hint.y(), best->sum / best->count}, best->cells};
-      std::sort(start.fallbacks.begin(), start.fallbacks.end(),
-                [&](const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
-                  return (a - hint.head<2>()).squaredNorm() < (b - hint.head<2>()).squaredNorm();
-                });
-      if (start.fallbacks.size() > kMaxSeedTries) start.fallbacks.resize(kMaxSeedTries);
+      // Fallback roots: the bin's cells whose window holds most cells of the bin, nearest first
+      // among equals. The cells nearest to a sensor-mounted hint lie on the innermost scan ring
+      // (a thin arc no plane can be fitted to); the best-covered ones make a root that fits.
+      const double s = map_.cell_size();
+      const auto key_of = [&](const Eigen::Vector2d& xy) {
+        return CellKey{static_cast<std::int32_t>(std::floor(xy.x() / s)), static_cast<std::int32_t>(std::floor(xy.y() / s))};
+      };
+      std::unordered_set<CellKey, CellKeyHash> in_bin;
+      for (const Eigen::Vector2d& xy : best->cells) in_bin.insert(key_of(xy));
+      const auto reach = static_cast<std::int32_t>(std::floor(window_ / s));
+      std::vector<std::pair<int, double>> score(best->cells.size());  // (cells of the bin around, distance²)
+      for (std::size_t c = 0; c < best->cells.size(); ++c) {
+        const CellKey k = key_of(best->cells[c]);
+        int around = 0;
+        for (std::int32_t di = -reach; di <= reach; ++di) {
+          for (std::int32_t dj = -reach; dj <= reach; ++dj) around += in_bin.count({k.i + di, k.j + dj}) > 0 ? 1 : 0;
+        }
+        score[c] = {around, (best->cells[c] - hint.head<2>()).squaredNorm()};
+      }
+      std::vector<std::size_t> order(best->cells.size());
+      for (std::size_t c = 0; c < order.size(); ++c) order[c] = c;
+      std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+        return score[a].first != score[b].first ? score[a].first > score[b].first : score[a].second < score[b].second;
+      });
+      start.fallbacks.clear();
+      for (std::size_t c = 0; c < order.size() && c < kMaxSeedTries; ++c) start.fallbacks.push_back(best->cells[order[c]]);
       return start;
     }
     return std::nullopt;
@@ -269,8 +357,7 @@ class PatchExplorer {
 
   /// Line 6: the tree node nearest to x_rand.
   int nearest_node(const Eigen::Vector2d& x_rand) const {
-    const GroundPatch* near = model_.nearest(x_rand.x(), x_rand.y());
-    return static_cast<int>(near - model_.patches().data());
+    return model_.nearest_index(x_rand.x(), x_rand.y());
   }
 
   /// Line 7, eq. (2): one step of d_n from x_near toward x_rand.
@@ -371,17 +458,17 @@ class PatchExplorer {
   /// keep two expansion steps of margin around x_expansion.
   void update_search_space(const Eigen::Vector2d& x_expansion) {
     center_sum_ += x_expansion;
-    search_center_ = center_sum_ / static_cast<double>(patches_.size());
+    search_center_ = center_sum_ / static_cast<double>(added_);
     search_half_extent_ =
         std::max(search_half_extent_, (x_expansion - search_center_).cwiseAbs().maxCoeff() +
                                           2.0 * params_.expansion_distance);
   }
 
-  /// Adds a node to the tree; rebuilding the kd-tree costs O(n log n), fine for K in the hundreds.
+  /// Adds a node to the tree and its kd-tree.
   void add_node(const GroundPatch& patch) {
-    if (patches_.empty()) center_sum_ = patch.center.head<2>();
-    patches_.push_back(patch);
-    model_ = GroundModel(patches_);
+    if (added_ == 0) center_sum_ = patch.center.head<2>();
+    ++added_;
+    model_.add(patch);
   }
 
   void tops_in_band(const CellKey& key, const GroundPatch& reference, double band,
@@ -413,9 +500,9 @@ class PatchExplorer {
   const HMap& map_;
   const GroundParams& params_;
   double window_;
-  std::mt19937_64 rng_;
-  std::vector<GroundPatch> patches_;  // the tree G
-  GroundModel model_;                 // kd-tree over patches_
+  GroundModel& model_;    // the tree G with its kd-tree
+  std::mt19937_64& rng_;
+  int added_ = 0;         // patches this explorer added
   Eigen::Vector2d center_sum_ = Eigen::Vector2d::Zero();
   Eigen::Vector2d search_center_ = Eigen::Vector2d::Zero();
   double search_half_extent_ = 0.0;
@@ -426,12 +513,34 @@ class PatchExplorer {
 GroundResult extract_ground(const HMap& map, const Eigen::Vector3d& hint,
                             const GroundParams& params, double window) {
   validate(hint, params, window);
-  return PatchExplorer(map, params, window).run(hint);
+  GroundModel tree;
+  std::mt19937_64 rng(params.seed);
+  GroundResult result = PatchExplorer(map, params, window, tree, rng).run(hint);
+  result.patches = tree.patches();
+  return result;
 }
 
 GroundResult extract_ground(const HMap& map, const Eigen::Vector3d& hint,
                             const GroundParams& params) {
   return extract_ground(map, hint, params, params.expansion_distance / 2.0);
+}
+
+GroundTracker::GroundTracker(const GroundParams& params, double window)
+    : params_(params), window_(window), rng_(params.seed) {
+  validate(Eigen::Vector3d::Zero(), params_, window_);
+}
+
+GroundTracker::GroundTracker(const GroundParams& params) : GroundTracker(params, params.expansion_distance / 2.0) {}
+
+GroundTracker::GroundTracker(const GroundParams& params, double window, std::vector<GroundPatch> patches)
+    : GroundTracker(params, window) {
+  for (const GroundPatch& p : patches) tree_.add(p);
+}
+
+GroundResult GroundTracker::update(const HMap& map, const Eigen::Vector3d& hint, double reach) {
+  validate(hint, params_, window_);
+  if (!(std::isfinite(reach) && reach > 0.0)) throw Error("GroundTracker: the reach must be finite and > 0");
+  return PatchExplorer(map, params_, window_, tree_, rng_).grow(hint, reach);
 }
 
 }  // namespace hmap

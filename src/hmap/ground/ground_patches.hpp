@@ -8,6 +8,7 @@
 
 #include <memory>
 #include <optional>
+#include <random>
 #include <vector>
 
 #include <Eigen/Core>
@@ -40,7 +41,8 @@ struct GroundResult {
   bool seeded = false;               ///< false when no start patch could be found near the hint
 };
 
-/// Queries on a set of patches through a kd-tree of their (x, y) centres.
+/// Queries on a set of patches through a kd-tree of their (x, y) centres, which grows as patches
+/// are added.
 class GroundModel {
  public:
   GroundModel();
@@ -54,8 +56,15 @@ class GroundModel {
   [[nodiscard]] bool empty() const { return index_ == nullptr; }
   [[nodiscard]] std::size_t size() const { return empty() ? 0 : patches().size(); }
 
+  /// Adds a patch (Alg. 4's addNode); returns its index. Queries stay valid without a rebuild.
+  int add(const GroundPatch& patch);
+
   /// The patch whose centre is nearest to (x, y) in 2D, or nullptr when there is none.
   [[nodiscard]] const GroundPatch* nearest(double x, double y) const;
+  /// Index of that patch, or -1 when there is none.
+  [[nodiscard]] int nearest_index(double x, double y) const;
+  /// Whether some patch centre lies within `radius` [m] of (x, y).
+  [[nodiscard]] bool any_within(double x, double y, double radius) const;
   /// Indices of the patches whose centre lies within `radius` [m] of (x, y), nearest first.
   [[nodiscard]] std::vector<int> within(double x, double y, double radius) const;
   /// Height [m] of the nearest patch's plane at (x, y); nullopt when there is no patch.
@@ -73,5 +82,33 @@ class GroundModel {
 /// As above with windows of half-size d_n / 2: neighbouring patches then just touch.
 [[nodiscard]] GroundResult extract_ground(const HMap& map, const Eigen::Vector3d& hint,
                                           const GroundParams& params);
+
+/// Alg. 4 kept running while the map grows: the tree persists from scan to scan, and each
+/// update() runs K more iterations with x_rand drawn around the robot, so the patches follow the
+/// robot at a fixed cost per scan instead of being rebuilt over the whole map. Patches, once
+/// accepted, stay (the ground does not move). `GroundResult::patches` stays empty: the tree is
+/// `patches()`.
+class GroundTracker {
+ public:
+  /// Windows of half-size `window` [m] (default d_n / 2). Throws hmap::Error for invalid params.
+  GroundTracker(const GroundParams& params, double window);
+  explicit GroundTracker(const GroundParams& params);
+  /// Continues a tree saved earlier.
+  GroundTracker(const GroundParams& params, double window, std::vector<GroundPatch> patches);
+
+  /// K iterations sampling the square of half-size `reach` [m] around `hint` (the sensor);
+  /// seeds a new root under the hint when no patch lies within `reach` of it.
+  GroundResult update(const HMap& map, const Eigen::Vector3d& hint, double reach);
+
+  [[nodiscard]] const GroundModel& model() const { return tree_; }
+  [[nodiscard]] const std::vector<GroundPatch>& patches() const { return tree_.patches(); }
+  [[nodiscard]] double window() const { return window_; }
+
+ private:
+  GroundParams params_;
+  double window_;
+  std::mt19937_64 rng_;
+  GroundModel tree_;
+};
 
 }  // namespace hmap

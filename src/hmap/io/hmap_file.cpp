@@ -30,7 +30,11 @@ namespace hmap {
 namespace {
 
 constexpr std::array<unsigned char, 8> kMagic = {0x89, 'H', 'M', 'A', 'P', '\r', '\n', 0x1a};
-constexpr std::uint32_t kVersion = 1;
+constexpr std::uint32_t kVersion = 2;
+constexpr std::uint32_t kOldestVersion = 1;
+constexpr std::uint64_t kPatchBytes = 7 * 8 + 4;
+constexpr std::uint64_t kGridTileBytes = 8 + 4 * OccupancyGrid::kTileCells;
+constexpr std::int32_t kGridTileKeyLimit = std::int32_t{1} << (30 - OccupancyGrid::kTileBits);
 constexpr std::size_t kJsonOffset = 24;                 // after magic, version, flags, J
 constexpr std::size_t kMinFileBytes = kJsonOffset + 24;  // + U, C, checksum: J = C = 0
 constexpr std::size_t kChecksumBytes = 8;
@@ -125,6 +129,43 @@ void append_tile(std::string& out, const CellKey& key, const HMap::Tile& tile) {
       put_f32(out, v.density);
     }
   }
+}
+
+void put_f64(std::string& out, double v) { put_u64(out, std::bit_cast<std::uint64_t>(v)); }
+
+using GridTileRef = std::pair<CellKey, const OccupancyGrid::Tile*>;
+
+std::vector<GridTileRef> sorted_grid_tiles(const OccupancyGrid* grid) {
+  std::vector<GridTileRef> tiles;
+  if (grid == nullptr) return tiles;
+  grid->for_each_tile([&tiles](const CellKey& key, const OccupancyGrid::Tile& tile) {
+    if (std::any_of(tile.log_odds.begin(), tile.log_odds.end(), [](float l) { return !std::isnan(l); })) {
+      tiles.emplace_back(key, &tile);
+    }
+  });
+  std::sort(tiles.begin(), tiles.end(), [](const GridTileRef& a, const GridTileRef& b) {
+    return a.first.i != b.first.i ? a.first.i < b.first.i : a.first.j < b.first.j;
+  });
+  return tiles;
+}
+
+/// The version-2 sections after the tiles: ground patches, then the grid.
+std::string hybrid_sections(std::span<const GroundPatch> ground, const std::vector<GridTileRef>& grid_tiles) {
+  std::string out;
+  put_u64(out, ground.size());
+  for (const GroundPatch& p : ground) {
+    for (int k = 0; k < 3; ++k) put_f64(out, p.center[k]);
+    for (int k = 0; k < 3; ++k) put_f64(out, p.normal[k]);
+    put_f64(out, p.half_size);
+    put_u32(out, static_cast<std::uint32_t>(p.parent));
+  }
+  put_u64(out, grid_tiles.size());
+  for (const auto& [key, tile] : grid_tiles) {
+    put_u32(out, static_cast<std::uint32_t>(key.i));
+    put_u32(out, static_cast<std::uint32_t>(key.j));
+    for (const float l : tile->log_odds) put_f32(out, l);
+  }
+  return out;
 }
 
 std::string params_json(const Params& params) {
@@ -469,14 +510,103 @@ void read_tiles(PayloadReader& in, HMap& map) {
   }
 }
 
+std::vector<GroundPatch> read_ground(PayloadReader& in) {
+  const std::uint64_t at = in.position();
+  const std::uint64_t count = in.u64();
+  if (count > in.remaining() / kPatchBytes) {
+    throw in.error(at, "ground patch count " + std::to_string(count) + " cannot fit in the " +
+                           std::to_string(in.remaining()) + " payload bytes that remain");
+  }
+  std::vector<GroundPatch> patches;
+  patches.reserve(static_cast<std::size_t>(count));
+  for (std::uint64_t k = 0; k < count; ++k) {
+    const std::uint64_t patch_at = in.position();
+    const std::string what = "ground patch " + std::to_string(k);
+    GroundPatch p{};
+    for (int c = 0; c < 3; ++c) p.center[c] = std::bit_cast<double>(in.u64());
+    for (int c = 0; c < 3; ++c) p.normal[c] = std::bit_cast<double>(in.u64());
+    p.half_size = std::bit_cast<double>(in.u64());
+    p.parent = static_cast<std::int32_t>(in.u32());
+    if (!p.center.allFinite() || !p.normal.allFinite() || !std::isfinite(p.half_size)) {
+      throw in.error(patch_at, what + ": expected finite numbers");
+    }
+    if (std::abs(p.normal.norm() - 1.0) > 1e-6 || !(p.normal.z() > 0.0)) {
+      throw in.error(patch_at, what + ": expected a unit normal pointing up");
+    }
+    if (!(p.half_size > 0.0)) throw in.error(patch_at, what + ": expected a half size > 0");
+    if (p.parent < -1 || p.parent >= static_cast<std::int32_t>(k)) {
+      throw in.error(patch_at, what + ": expected parent -1 or the index of an earlier patch");
+    }
+    patches.push_back(p);
+  }
+  return patches;
+}
+
+std::optional<OccupancyGrid> read_grid(PayloadReader& in, const Params& params) {
+  const std::uint64_t at = in.position();
+  const std::uint64_t count = in.u64();
+  if (count > in.remaining() / kGridTileBytes) {
+    throw in.error(at, "occupancy tile count " + std::to_string(count) + " cannot fit in the " +
+                           std::to_string(in.remaining()) + " payload bytes that remain");
+  }
+  if (count == 0) return std::nullopt;
+  OccupancyGrid grid(params.map.cell_size, params.occupancy.clamp_min, params.occupancy.clamp_max);
+  // Saved values were clamped with these bounds as float32: allow their rounding only.
+  const float lo = grid.clamp_min_log_odds() - 1e-4F;
+  const float hi = grid.clamp_max_log_odds() + 1e-4F;
+  std::optional<CellKey> previous;
+  for (std::uint64_t t = 0; t < count; ++t) {
+    const std::uint64_t tile_at = in.position();
+    const CellKey tile{static_cast<std::int32_t>(in.u32()), static_cast<std::int32_t>(in.u32())};
+    const std::string tile_name = "occupancy tile (" + std::to_string(tile.i) + ", " + std::to_string(tile.j) + ")";
+    if (tile.i < -kGridTileKeyLimit || tile.i >= kGridTileKeyLimit || tile.j < -kGridTileKeyLimit ||
+        tile.j >= kGridTileKeyLimit) {
+      throw in.error(tile_at, tile_name + ": expected tile keys in [-2^27, 2^27)");
+    }
+    if (previous && (previous->i > tile.i || (previous->i == tile.i && previous->j >= tile.j))) {
+      throw in.error(tile_at, tile_name + ": expected tiles in increasing key order, each once");
+    }
+    previous = tile;
+    bool any = false;
+    for (int local = 0; local < OccupancyGrid::kTileCells; ++local) {
+      const std::uint64_t cell_at = in.position();
+      const float l = in.f32();
+      if (std::isnan(l)) continue;
+      if (!(l >= lo && l <= hi)) {
+        throw in.error(cell_at, tile_name + ": expected log-odds within the clamping bounds [" +
+                                    std::to_string(lo) + ", " + std::to_string(hi) + "] or NaN");
+      }
+      any = true;
+      grid.set({tile.i * OccupancyGrid::kTileSize + (local >> OccupancyGrid::kTileBits),
+                tile.j * OccupancyGrid::kTileSize + (local & (OccupancyGrid::kTileSize - 1))},
+               l);
+    }
+    if (!any) throw in.error(tile_at, tile_name + " holds no known cell (such tiles are not stored)");
+  }
+  return grid;
+}
+
 }  // namespace
 
-void save_hmap(const std::filesystem::path& path, const HMap& map) {
+void save_hmap(const std::filesystem::path& path, const HMap& map) { save_hmap(path, map, {}, nullptr); }
+
+void save_hmap(const std::filesystem::path& path, const HMap& map, std::span<const GroundPatch> ground,
+               const OccupancyGrid* grid) {
+  if (grid != nullptr && grid->cell_size() != map.cell_size()) {
+    throw Error("cannot save " + path.string() + ": the occupancy grid's cell size differs from the map's");
+  }
+  for (std::size_t k = 0; k < ground.size(); ++k) {
+    if (ground[k].parent < -1 || ground[k].parent >= static_cast<int>(k)) {
+      throw Error("cannot save " + path.string() + ": ground patch " + std::to_string(k) +
+                  " has a parent that is not an earlier patch");
+    }
+  }
   // Everything happens inside the writer: on any error the old file stays and no temporary is
   // left, and hmap::Error messages get the path.
-  write_file_atomic(path, [&map](std::ostream& out) {
+  write_file_atomic(path, [&map, ground, grid](std::ostream& out) {
     const std::vector<TileRef> tiles = sorted_nonempty_tiles(map);
-    std::uint64_t payload_size = 8;
+    const std::string sections = hybrid_sections(ground, sorted_grid_tiles(grid));
+    std::uint64_t payload_size = 8 + sections.size();
     for (const auto& [key, tile] : tiles) payload_size += tile_bytes(*tile);
     if (payload_size > kMaxPayloadBytes) {
       throw Error("the map takes " + std::to_string(payload_size) +
@@ -497,6 +627,8 @@ void save_hmap(const std::filesystem::path& path, const HMap& map) {
     }
     compressor.add(chunk);
     written += chunk.size();
+    compressor.add(sections);
+    written += sections.size();
     if (written != payload_size) throw Error("internal error: payload size miscounted");
     const std::string compressed = compressor.finish();
 
@@ -524,7 +656,9 @@ void save_hmap(const std::filesystem::path& path, const HMap& map) {
   });
 }
 
-HMap load_hmap(const std::filesystem::path& path) {
+HMap load_hmap(const std::filesystem::path& path) { return std::move(load_map_file(path).map); }
+
+MapFile load_map_file(const std::filesystem::path& path) {
   const std::string name = path.string();
   const std::vector<unsigned char> file = read_whole_file(path);
   const std::span<const unsigned char> bytes(file);
@@ -539,10 +673,10 @@ HMap load_hmap(const std::filesystem::path& path) {
     throw InputError(name, byte_at(0), "not a .hmap file: expected the magic bytes 89 48 4D 41 50 0D 0A 1A");
   }
   const std::uint32_t version = get_u32(&bytes[8]);
-  if (version != kVersion) {
+  if (version < kOldestVersion || version > kVersion) {
     throw InputError(name, byte_at(8), "unsupported format version " + std::to_string(version) +
-                                           " (this reader knows version " +
-                                           std::to_string(kVersion) + ")");
+                                           " (this reader knows versions " + std::to_string(kOldestVersion) +
+                                           " to " + std::to_string(kVersion) + ")");
   }
   const std::uint32_t flags = get_u32(&bytes[12]);
   if (flags != 0) {
@@ -584,8 +718,13 @@ HMap load_hmap(const std::filesystem::path& path) {
   PayloadReader payload(name, bytes.subspan(payload_at, static_cast<std::size_t>(compressed_size)),
                         payload_size, payload_at);
   read_tiles(payload, map);
+  MapFile result{std::move(map), {}, std::nullopt};
+  if (version >= 2) {
+    result.ground = read_ground(payload);
+    result.grid = read_grid(payload, result.map.params());
+  }
   payload.finish();
-  return map;
+  return result;
 }
 
 }  // namespace hmap

@@ -22,6 +22,11 @@ void OccupancyGrid::update(const CellKey& key, float measurement_log_odds) {
   l = std::clamp(previous + measurement_log_odds, l_min_, l_max_);
 }
 
+void OccupancyGrid::set(const CellKey& key, float l) {
+  if (!std::isfinite(l)) throw Error("occupancy grid: log-odds must be finite");
+  tiles_.find_or_create(tile_of(key)).log_odds[local_index(key)] = std::clamp(l, l_min_, l_max_);
+}
+
 std::optional<float> OccupancyGrid::log_odds_at(const CellKey& key) const {
   const Tile* tile = tiles_.find(tile_of(key));
   if (tile == nullptr) return std::nullopt;

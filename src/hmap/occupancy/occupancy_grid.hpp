@@ -35,6 +35,8 @@ class OccupancyGrid {
   [[nodiscard]] double cell_size() const { return cell_size_; }
   /// eq. (3) with a prior of 0.5: l ← clamp(l + log_odds(p(c|z))); an unknown cell starts at 0.
   void update(const CellKey& key, float measurement_log_odds);
+  /// Sets a cell's log-odds (clamped), as when a saved grid is read back. `l` must be finite.
+  void set(const CellKey& key, float l);
   /// Log-odds of a cell, or nullopt if it was never observed.
   [[nodiscard]] std::optional<float> log_odds_at(const CellKey& key) const;
   /// Occupancy probability of a cell, or nullopt if it was never observed.
@@ -50,6 +52,14 @@ class OccupancyGrid {
       }
     });
   }
+  /// Calls f(CellKey tile_key, const Tile&) for every allocated tile (tile (a, b) holds cells
+  /// [8a, 8a + 8) × [8b, 8b + 8); cell (i, j) is at log_odds[8 · (i mod 8) + (j mod 8)]).
+  template <typename F>
+  void for_each_tile(F&& f) const {
+    tiles_.for_each(f);
+  }
+  /// Bytes held by the tiles.
+  [[nodiscard]] std::size_t memory_bytes() const { return tiles_.size() * sizeof(Tile); }
   [[nodiscard]] float clamp_min_log_odds() const { return l_min_; }
   [[nodiscard]] float clamp_max_log_odds() const { return l_max_; }
 

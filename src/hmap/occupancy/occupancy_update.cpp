@@ -3,6 +3,12 @@
 #include <algorithm>
 #include <cmath>
 
+#include <limits>
+
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
 #include "hmap/maps/ray_trace.hpp"
 
 namespace hmap {
@@ -25,51 +31,172 @@ double inverse_sensor_model(HVoxelRole role, double density, double delta, const
   return 0.5;
 }
 
-OccupancyUpdateStats update_occupancy(const ScanHVoxels& scan, const GroundModel& ground, const Params& params,
-                                      OccupancyGrid& grid) {
-  const OccupancyParams& op = params.occupancy;
-  const double cell = params.map.cell_size;
-  const double xs = scan.origin_map.x();
-  const double ys = scan.origin_map.y();
-  OccupancyUpdateStats stats;
-  std::unordered_map<CellKey, double, CellKeyHash> p_of_cell;
+namespace {
+constexpr int kBlockBits = 2;  // ground lookup blocks of 4x4 cells
+constexpr double kCutoffEpsilon = 1e-4;
+
+/// Distance before the target beyond which both terms of eq. (4) are within ε of the floor K_g:
+/// obstacle: max(ρ, 0.5)·exp(−δ²/2σ²) <= ε ⇐ |δ| >= σ·sqrt(2 ln(1/ε));
+/// ground: (0.5 − K_g) / (1 + exp(|δ|/d_pth)) <= ε ⇐ |δ| >= d_pth·ln((0.5 − K_g)/ε).
+double eq4_cutoff(const OccupancyParams& p) {
+  const double obstacle = p.sigma * std::sqrt(2.0 * std::log(1.0 / kCutoffEpsilon));
+  const double ground = p.ground_distance * std::log(std::max(0.5 - p.ground_gain, kCutoffEpsilon) / kCutoffEpsilon);
+  return std::max(obstacle, ground);
+}
+}  // namespace
+
+namespace {
+struct RayBuffer {
+  std::vector<float> p;                 // per window cell: max p of this scan, < 0 untouched
+  std::vector<std::uint32_t> touched;   // window cells with p >= 0
   std::vector<std::pair<HVoxelRole, double>> judged;  // (role, density) of the current scan cell
-  for (const ScanCell& target : scan.cells) {
-    const double xt = (target.key.i + 0.5) * cell;
-    const double yt = (target.key.j + 0.5) * cell;
-    const auto ground_z = ground.ground_height(xt, yt);
-    if (!ground_z) {
+  std::size_t rays = 0;
+};
+}  // namespace
+
+struct OccupancyUpdater::Buffers : tbb::enumerable_thread_specific<RayBuffer> {};
+
+OccupancyUpdater::OccupancyUpdater(const Params& params)
+    : params_(params), cutoff_(0.0), buffers_(std::make_unique<Buffers>()) {
+  validate(params_);
+  cutoff_ = eq4_cutoff(params_.occupancy);
+}
+
+OccupancyUpdater::~OccupancyUpdater() = default;
+OccupancyUpdater::OccupancyUpdater(OccupancyUpdater&&) noexcept = default;
+OccupancyUpdater& OccupancyUpdater::operator=(OccupancyUpdater&&) noexcept = default;
+
+void OccupancyUpdater::find_ground(const ScanHVoxels& scan, const ScanWindow& window, const GroundModel& ground,
+                                   OccupancyUpdateStats& stats) {
+  const OccupancyParams& op = params_.occupancy;
+  const double cell = params_.map.cell_size;
+  if (window_width_ != window.width) {
+    window_width_ = window.width;
+    const std::size_t blocks_per_side = (static_cast<std::size_t>(window.width) >> kBlockBits) + 1;
+    block_patch_.assign(blocks_per_side * blocks_per_side, -1);
+    block_stamp_.assign(blocks_per_side * blocks_per_side, 0);
+    stamp_ = 0;
+  }
+  if (++stamp_ == 0) {  // wrapped: forget every cached block
+    std::fill(block_stamp_.begin(), block_stamp_.end(), 0U);
+    stamp_ = 1;
+  }
+  const std::size_t blocks_per_side = (static_cast<std::size_t>(window.width) >> kBlockBits) + 1;
+  const auto& patches = ground.patches();
+  ground_z_.resize(scan.cells.size());
+  for (std::size_t c = 0; c < scan.cells.size(); ++c) {
+    const CellKey& key = scan.cells[c].key;
+    const double xt = (key.i + 0.5) * cell;
+    const double yt = (key.j + 0.5) * cell;
+    ground_z_[c] = std::numeric_limits<double>::quiet_NaN();
+    // The local ground: the patch nearest to the centre of the cell's block.
+    const auto bi = static_cast<std::size_t>(key.i - window.center.i + window.half) >> kBlockBits;
+    const auto bj = static_cast<std::size_t>(key.j - window.center.j + window.half) >> kBlockBits;
+    const std::size_t b = bi * blocks_per_side + bj;
+    if (block_stamp_[b] != stamp_) {
+      block_stamp_[b] = stamp_;
+      const double half_block = 0.5 * cell * (1 << kBlockBits);
+      const double xb = (static_cast<double>(bi << kBlockBits) - window.half + window.center.i) * cell + half_block;
+      const double yb = (static_cast<double>(bj << kBlockBits) - window.half + window.center.j) * cell + half_block;
+      block_patch_[b] = ground.nearest_index(xb, yb);
+    }
+    const std::int32_t patch_index = block_patch_[b];
+    if (patch_index < 0) {
       ++stats.no_ground;
       continue;
     }
-    judged.clear();
-    for (const HVoxel& v : scan.hvoxels_of(target)) {
-      const HVoxelRole role = hvoxel_role(v, *ground_z, op);
-      if (role != HVoxelRole::kIgnored) judged.emplace_back(role, v.density);
+    const GroundPatch& patch = patches[static_cast<std::size_t>(patch_index)];
+    // Distance from the patch's square, not its centre: a large patch covers its whole extent.
+    if ((patch.center.head<2>() - Eigen::Vector2d(xt, yt)).cwiseAbs().maxCoeff() - patch.half_size > op.ground_reach) {
+      ++stats.no_ground;
+      continue;
     }
-    if (judged.empty()) continue;  // only ceilings, crowns or pits here: no evidence for the grid
-    ++stats.rays;
-    const double length = std::hypot(xt - xs, yt - ys);
-    traverse_2d(xs, ys, xt, yt, cell, [&](const CellKey& key, double t_in, double t_out) {
-      // |c| − |v|: from the middle of the ray's stretch in this cell to the HVoxel's cell centre.
-      const double delta = (0.5 * (t_in + t_out) - 1.0) * length;
-      const double at_target = key == target.key ? 0.0 : delta;
-      double p = 0.5;
-      bool first = true;
-      for (const auto& [role, density] : judged) {
-        const double q = inverse_sensor_model(role, density, at_target, op);
-        p = first ? q : std::max(p, q);
-        first = false;
-      }
-      p = std::clamp(p, op.ground_gain, op.clamp_max);
-      auto [it, fresh] = p_of_cell.try_emplace(key, p);
-      if (!fresh) it->second = std::max(it->second, p);
-      return true;
-    });
+    ground_z_[c] = patch.height_at(xt, yt);
   }
-  for (const auto& [key, p] : p_of_cell) grid.update(key, log_odds(p));
-  stats.cells = p_of_cell.size();
+}
+
+OccupancyUpdateStats OccupancyUpdater::update(const ScanHVoxels& scan, const GroundModel& ground,
+                                              OccupancyGrid& grid) {
+  const OccupancyParams& op = params_.occupancy;
+  const double cell = params_.map.cell_size;
+  const double xs = scan.origin_map.x();
+  const double ys = scan.origin_map.y();
+  OccupancyUpdateStats stats;
+  if (scan.cells.empty()) return stats;
+  // The square around the sensor's cell holding every scan cell: each ray lies inside it. Taken
+  // from the cells rather than scan.window, so hand-made scans work too.
+  ScanWindow window;
+  window.center = {static_cast<std::int32_t>(std::floor(xs / cell)), static_cast<std::int32_t>(std::floor(ys / cell))};
+  for (const ScanCell& c : scan.cells) {
+    window.half = std::max({window.half, std::abs(c.key.i - window.center.i), std::abs(c.key.j - window.center.j)});
+  }
+  window.width = 2 * window.half + 1;
+
+  find_ground(scan, window, ground, stats);
+
+  // The rays, in parallel: each thread keeps the max p per cell in its own dense buffer.
+  const auto floor_p = static_cast<float>(op.ground_gain);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, scan.cells.size(), 256), [&](const auto& range) {
+    RayBuffer& buffer = buffers_->local();
+    if (buffer.p.size() < window.cells()) buffer.p.resize(window.cells(), -1.0F);
+    for (std::size_t c = range.begin(); c != range.end(); ++c) {
+      if (std::isnan(ground_z_[c])) continue;
+      const ScanCell& target = scan.cells[c];
+      buffer.judged.clear();
+      for (const HVoxel& v : scan.hvoxels_of(target)) {
+        const HVoxelRole role = hvoxel_role(v, ground_z_[c], op);
+        if (role != HVoxelRole::kIgnored) buffer.judged.emplace_back(role, v.density);
+      }
+      if (buffer.judged.empty()) continue;  // only ceilings, crowns or pits here: no evidence
+      ++buffer.rays;
+      const double xt = (target.key.i + 0.5) * cell;
+      const double yt = (target.key.j + 0.5) * cell;
+      const double length = std::hypot(xt - xs, yt - ys);
+      const double t_cutoff = length > 0.0 ? 1.0 - cutoff_ / length : 0.0;
+      traverse_2d(xs, ys, xt, yt, cell, [&](const CellKey& key, double t_in, double t_out) {
+        float p = floor_p;
+        if (t_out >= t_cutoff) {
+          // |c| − |v|: from the middle of the ray's stretch in this cell to the HVoxel's cell centre.
+          const double delta = key == target.key ? 0.0 : (0.5 * (t_in + t_out) - 1.0) * length;
+          double q_max = 0.0;
+          for (const auto& [role, density] : buffer.judged) {
+            q_max = std::max(q_max, inverse_sensor_model(role, density, delta, op));
+          }
+          p = static_cast<float>(std::clamp(q_max, op.ground_gain, op.clamp_max));
+        }
+        const std::size_t index = window.index(key);
+        float& slot = buffer.p[index];
+        if (slot < 0.0F) buffer.touched.push_back(static_cast<std::uint32_t>(index));
+        slot = std::max(slot, p);
+        return true;
+      });
+    }
+  });
+
+  // eq. (3) once per cell with the largest p any thread saw; the buffers are left untouched (< 0).
+  for (RayBuffer& buffer : *buffers_) {
+    stats.rays += buffer.rays;
+    buffer.rays = 0;
+    for (const std::uint32_t index : buffer.touched) {
+      float p = buffer.p[index];
+      if (p < 0.0F) continue;  // merged already from an earlier buffer
+      for (RayBuffer& other : *buffers_) {
+        if (other.p.size() > index) {
+          p = std::max(p, other.p[index]);
+          other.p[index] = -1.0F;
+        }
+      }
+      grid.update(window.key_of(index), log_odds(p));
+      ++stats.cells;
+    }
+    buffer.touched.clear();
+  }
   return stats;
+}
+
+OccupancyUpdateStats update_occupancy(const ScanHVoxels& scan, const GroundModel& ground, const Params& params,
+                                      OccupancyGrid& grid) {
+  return OccupancyUpdater(params).update(scan, ground, grid);
 }
 
 }  // namespace hmap

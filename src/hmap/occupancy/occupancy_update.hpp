@@ -2,7 +2,10 @@
 // HVoxel to 2D occupancy update (section IV-B, eq. 3-4): each scan's HVoxels, judged against the
 // local ground patch, update the log-odds of the cells along the ray from the sensor to them.
 
-#include <unordered_map>
+#include <cstdint>
+#include <memory>
+#include <utility>
+#include <vector>
 
 #include "hmap/core/params.hpp"
 #include "hmap/ground/ground_patches.hpp"
@@ -30,14 +33,50 @@ enum class HVoxelRole : std::uint8_t {
 struct OccupancyUpdateStats {
   std::size_t rays = 0;        ///< scan cells with at least one HVoxel that is not ignored
   std::size_t cells = 0;       ///< grid cells updated
-  std::size_t no_ground = 0;   ///< scan cells skipped: no ground patch to judge them by
+  std::size_t no_ground = 0;   ///< scan cells skipped: no ground patch within ground_reach
 };
 
-/// Updates `grid` with one scan. Each cell on the path from the sensor's cell to a scan cell
-/// (both included) takes p(c|z) = max over that cell's HVoxels of eq. (4); a cell reached by
-/// several rays keeps the largest p of the scan (a hit outranks a pass-through), and is then
-/// updated once by eq. (3). p is floored at K_g: in front of an obstacle the obstacle term tends
-/// to 0, which would otherwise be certainty of free space from a single scan.
+/// Updates the 2D grid with one scan after another, reusing its buffers (nothing is allocated per
+/// scan once warm). Each cell on the path from the sensor's cell to a scan cell (both included)
+/// takes p(c|z) = max over that cell's HVoxels of eq. (4); a cell reached by several rays keeps
+/// the largest p of the scan (a hit outranks a pass-through), and is then updated once by
+/// eq. (3). p is floored at K_g: in front of an obstacle the obstacle term tends to 0, which would
+/// otherwise be certainty of free space from a single scan.
+///
+/// Two shortcuts, both exact to 1e-4 in probability: farther than `cutoff()` before its HVoxel's
+/// cell a ray's p is the floor K_g, so eq. (4) is only evaluated near the end of each ray; and the
+/// local ground of a cell is the plane of the patch nearest to the centre of its 4x4-cell block,
+/// looked up once per block and scan.
+class OccupancyUpdater {
+ public:
+  /// Throws hmap::Error for invalid parameters.
+  explicit OccupancyUpdater(const Params& params);
+  ~OccupancyUpdater();
+  OccupancyUpdater(OccupancyUpdater&&) noexcept;
+  OccupancyUpdater& operator=(OccupancyUpdater&&) noexcept;
+
+  /// The rays run in parallel (TBB), each thread keeping its own per-cell maxima.
+  OccupancyUpdateStats update(const ScanHVoxels& scan, const GroundModel& ground, OccupancyGrid& grid);
+
+  /// Distance [m] before an HVoxel's cell beyond which eq. (4) is within 1e-4 of the floor K_g.
+  [[nodiscard]] double cutoff() const { return cutoff_; }
+
+ private:
+  struct Buffers;  // one RayBuffer per thread (TBB, kept out of this header)
+  void find_ground(const ScanHVoxels& scan, const ScanWindow& window, const GroundModel& ground,
+                   OccupancyUpdateStats& stats);
+
+  Params params_;
+  double cutoff_;
+  std::unique_ptr<Buffers> buffers_;
+  std::vector<double> ground_z_;            // per scan cell: local ground height, NaN none
+  std::vector<std::int32_t> block_patch_;   // per 4x4 block: nearest patch, -1 none
+  std::vector<std::uint32_t> block_stamp_;  // scan number the entry was computed for
+  std::uint32_t stamp_ = 0;
+  std::int32_t window_width_ = -1;          // the blocks above are laid out for this width
+};
+
+/// One scan with a fresh OccupancyUpdater (allocates its buffers: prefer the class scan after scan).
 OccupancyUpdateStats update_occupancy(const ScanHVoxels& scan, const GroundModel& ground, const Params& params,
                                       OccupancyGrid& grid);
 

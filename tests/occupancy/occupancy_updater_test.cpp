@@ -1,0 +1,137 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <unordered_map>
+
+#include "hmap/core/error.hpp"
+#include "hmap/maps/ray_trace.hpp"
+#include "hmap/occupancy/occupancy_update.hpp"
+
+namespace hmap {
+namespace {
+
+Params params() {
+  Params p = outdoor_preset();
+  p.map.cell_size = 0.2;
+  return p;
+}
+
+/// The brute-force twin: eq. (4) at every cell of every ray, the exact nearest patch at every
+/// cell centre, a hash map of maxima; then eq. (3).
+void twin_update(const ScanHVoxels& scan, const GroundModel& ground, const Params& params, OccupancyGrid& grid) {
+  const OccupancyParams& op = params.occupancy;
+  const double cell = params.map.cell_size;
+  const double xs = scan.origin_map.x();
+  const double ys = scan.origin_map.y();
+  std::unordered_map<CellKey, double, CellKeyHash> p_of_cell;
+  for (const ScanCell& target : scan.cells) {
+    const double xt = (target.key.i + 0.5) * cell;
+    const double yt = (target.key.j + 0.5) * cell;
+    const GroundPatch* patch = ground.nearest(xt, yt);
+    if (patch == nullptr) continue;
+    const double g = patch->height_at(xt, yt);
+    std::vector<std::pair<HVoxelRole, double>> judged;
+    for (const HVoxel& v : scan.hvoxels_of(target)) {
+      const HVoxelRole role = hvoxel_role(v, g, op);
+      if (role != HVoxelRole::kIgnored) judged.emplace_back(role, v.density);
+    }
+    if (judged.empty()) continue;
+    const double length = std::hypot(xt - xs, yt - ys);
+    traverse_2d(xs, ys, xt, yt, cell, [&](const CellKey& key, double t_in, double t_out) {
+      const double delta = key == target.key ? 0.0 : (0.5 * (t_in + t_out) - 1.0) * length;
+      double p = 0.0;
+      for (const auto& [role, density] : judged) p = std::max(p, inverse_sensor_model(role, density, delta, op));
+      p = std::clamp(p, op.ground_gain, op.clamp_max);
+      auto [it, fresh] = p_of_cell.try_emplace(key, p);
+      if (!fresh) it->second = std::max(it->second, p);
+      return true;
+    });
+  }
+  for (const auto& [key, p] : p_of_cell) grid.update(key, log_odds(p));
+}
+
+/// A random scan around (x0, y0): ground HVoxels, obstacles, overhangs, several per cell.
+ScanHVoxels random_scan(std::uint64_t seed, double x0, double y0) {
+  std::mt19937_64 rng(seed);
+  std::uniform_int_distribution<int> cell(-60, 60);
+  std::uniform_int_distribution<int> kind(0, 3);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  ScanHVoxels scan;
+  scan.origin_map = {x0, y0, 1.5};
+  std::unordered_map<CellKey, int, CellKeyHash> seen;
+  for (int n = 0; n < 400; ++n) {
+    const CellKey key{static_cast<std::int32_t>(std::floor(x0 / 0.2)) + cell(rng),
+                      static_cast<std::int32_t>(std::floor(y0 / 0.2)) + cell(rng)};
+    if (!seen.emplace(key, n).second) continue;
+    std::vector<HVoxel> vs;
+    switch (kind(rng)) {
+      case 0: vs = {{-0.02F, 0.02F, 5.0F, 0.9F}}; break;                              // ground
+      case 1: vs = {{0.0F, static_cast<float>(0.5 + u(rng)), 9.0F, static_cast<float>(u(rng))}}; break;  // obstacle
+      case 2: vs = {{-0.01F, 0.01F, 3.0F, 0.8F}, {3.0F, 4.0F, 9.0F, 0.9F}}; break;   // ground under a crown
+      default: vs = {{-0.01F, 0.08F, 3.0F, 0.8F}, {0.7F, 0.75F, 9.0F, 0.9F}}; break;  // low ground + a box top
+    }
+    scan.cells.push_back({key, static_cast<std::uint32_t>(scan.hvoxels.size()), static_cast<std::uint32_t>(vs.size())});
+    scan.hvoxels.insert(scan.hvoxels.end(), vs.begin(), vs.end());
+  }
+  return scan;
+}
+
+TEST(OccupancyUpdaterTest, MatchesTheBruteForceTwinScanAfterScan) {
+  const Params p = params();
+  // A slightly tilted ground plane, one patch covering everything.
+  const GroundModel ground({GroundPatch{{0.0, 0.0, 0.0}, Eigen::Vector3d(0.0, 0.0, 1.0), 1000.0, -1}});
+  OccupancyGrid fast(p.map.cell_size, p.occupancy.clamp_min, p.occupancy.clamp_max);
+  OccupancyGrid twin(p.map.cell_size, p.occupancy.clamp_min, p.occupancy.clamp_max);
+  OccupancyUpdater updater(p);
+  std::size_t cells = 0;
+  for (std::uint64_t seed = 1; seed <= 6; ++seed) {
+    // The sensor moves between scans, so the window and its blocks change too.
+    const ScanHVoxels scan = random_scan(seed, 0.37 * static_cast<double>(seed), -0.53 * static_cast<double>(seed));
+    const auto stats = updater.update(scan, ground, fast);
+    twin_update(scan, ground, p, twin);
+    cells += stats.cells;
+    EXPECT_EQ(stats.no_ground, 0U);
+  }
+  EXPECT_EQ(fast.known_cells(), twin.known_cells());
+  EXPECT_GT(cells, 1000U);
+  std::size_t compared = 0;
+  twin.for_each_cell([&](const CellKey& key, float l) {
+    const auto f = fast.log_odds_at(key);
+    ASSERT_TRUE(f.has_value());
+    // The cutoff changes p by at most 1e-4: log-odds by at most 1e-4 / (p (1 − p)) per update.
+    EXPECT_NEAR(*f, l, 6 * 2e-3) << "cell " << key.i << ", " << key.j;
+    ++compared;
+  });
+  EXPECT_EQ(compared, twin.known_cells());
+}
+
+TEST(OccupancyUpdaterTest, CutoffIsWhereEq4ReachesItsFloor) {
+  const Params p = params();
+  const OccupancyUpdater updater(p);
+  const double d = updater.cutoff();
+  const OccupancyParams& op = p.occupancy;
+  EXPECT_NEAR(inverse_sensor_model(HVoxelRole::kGround, 0.9, -d, op), op.ground_gain, 1.01e-4);
+  EXPECT_LE(inverse_sensor_model(HVoxelRole::kObstacle, 1.0, -d, op), 1.01e-4);
+  EXPECT_GT(inverse_sensor_model(HVoxelRole::kGround, 0.9, -0.5 * d, op) - op.ground_gain, 1e-4);
+}
+
+TEST(OccupancyUpdaterTest, EmptyScanAndNoGround) {
+  const Params p = params();
+  OccupancyUpdater updater(p);
+  OccupancyGrid grid(p.map.cell_size, 0.12, 0.97);
+  EXPECT_EQ(updater.update(ScanHVoxels{}, GroundModel(), grid).cells, 0U);
+  const ScanHVoxels scan = random_scan(3, 0.0, 0.0);
+  const auto stats = updater.update(scan, GroundModel(), grid);
+  EXPECT_EQ(stats.no_ground, scan.cells.size());
+  EXPECT_EQ(grid.known_cells(), 0U);
+  // A small patch far away is beyond ground_reach: nothing is judged by it.
+  const GroundModel far({GroundPatch{{500.0, 500.0, 0.0}, Eigen::Vector3d(0.0, 0.0, 1.0), 0.5, -1}});
+  EXPECT_EQ(updater.update(scan, far, grid).no_ground, scan.cells.size());
+  Params bad = params();
+  bad.occupancy.ground_reach = -1.0;
+  EXPECT_THROW(OccupancyUpdater{bad}, Error);
+}
+
+}  // namespace
+}  // namespace hmap
