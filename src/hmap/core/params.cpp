@@ -89,6 +89,29 @@ std::vector<ParamRef> param_refs(Params& p) {
   r.push_back(ref("slam.idw_power", "-", "p of eq. (12)", s.idw_power));
   r.push_back(ref_int("slam.max_iterations", "-", "Gauss-Newton iterations per scan",
                       s.max_iterations));
+  r.push_back(ref("slam.idw_weight", "-", "weight of an IDW-interpolated neighbour (eq. 12)",
+                  s.idw_weight));
+  r.push_back(ref("slam.min_match_height", "m", "thinner scan HVoxels do not take part in matching",
+                  s.min_match_height));
+  r.push_back(ref("slam.min_layer_height", "m", "intervals are widened to this for the IoU (eq. 9)",
+                  s.min_layer_height));
+  r.push_back(ref("slam.robust_scale", "-", "Cauchy scale on the residual 1 - M_H; 0 = off",
+                  s.robust_scale));
+  r.push_back(ref("slam.convergence_translation", "m", "a smaller Gauss-Newton step ends the match",
+                  s.convergence_translation));
+  r.push_back(ref("slam.convergence_rotation", "rad", "a smaller Gauss-Newton step ends the match",
+                  s.convergence_rotation));
+  r.push_back(ref("slam.degeneracy_ratio", "-", "curvature ratio of eq. (5) under which a match is degenerate",
+                  s.degeneracy_ratio));
+  r.push_back(ref_int("slam.max_hvoxels", "-", "HVoxels matched per scan at most; 0 = all",
+                      s.max_hvoxels));
+  r.push_back(ref("slam.coarse_trigger_ratio", "-",
+                  "a match scoring under this times the running mean is retried by a coarse search; 0 = never",
+                  s.coarse_trigger_ratio));
+  r.push_back(ref("slam.coarse_translation", "m", "half-width of the coarse search in x and y",
+                  s.coarse_translation));
+  r.push_back(ref("slam.coarse_rotation", "rad", "half-width of the coarse search in yaw",
+                  s.coarse_rotation));
   return r;
 }
 
@@ -148,10 +171,23 @@ void validate(const Params& p) {
           "in (0.5, 1)");
   require(o.ground_reach > 0.0, "occupancy.ground_reach", o.ground_reach, "> 0");
   const auto& s = p.slam;
-  require(s.interpolation_window >= 1 && s.interpolation_window % 2 == 1,
-          "slam.interpolation_window", s.interpolation_window, "an odd number >= 1");
+  require(s.interpolation_window >= 1 && s.interpolation_window <= 9 && s.interpolation_window % 2 == 1,
+          "slam.interpolation_window", s.interpolation_window, "an odd number in [1, 9]");
   require(s.idw_power > 0.0, "slam.idw_power", s.idw_power, "> 0");
   require(s.max_iterations >= 1, "slam.max_iterations", s.max_iterations, ">= 1");
+  require(s.idw_weight >= 0.0 && s.idw_weight <= 1.0, "slam.idw_weight", s.idw_weight, "in [0, 1]");
+  require(s.min_match_height >= 0.0, "slam.min_match_height", s.min_match_height, ">= 0");
+  require(s.min_layer_height > 0.0, "slam.min_layer_height", s.min_layer_height, "> 0");
+  require(s.robust_scale >= 0.0, "slam.robust_scale", s.robust_scale, ">= 0");
+  require(s.convergence_translation > 0.0, "slam.convergence_translation", s.convergence_translation, "> 0");
+  require(s.convergence_rotation > 0.0, "slam.convergence_rotation", s.convergence_rotation, "> 0");
+  require(s.degeneracy_ratio >= 0.0 && s.degeneracy_ratio < 1.0, "slam.degeneracy_ratio", s.degeneracy_ratio,
+          "in [0, 1)");
+  require(s.max_hvoxels >= 0, "slam.max_hvoxels", s.max_hvoxels, ">= 0");
+  require(s.coarse_trigger_ratio >= 0.0 && s.coarse_trigger_ratio <= 1.0, "slam.coarse_trigger_ratio",
+          s.coarse_trigger_ratio, "in [0, 1]");
+  require(s.coarse_translation >= 0.0, "slam.coarse_translation", s.coarse_translation, ">= 0");
+  require(s.coarse_rotation >= 0.0, "slam.coarse_rotation", s.coarse_rotation, ">= 0");
 }
 
 }  // namespace hmap

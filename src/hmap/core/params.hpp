@@ -62,6 +62,23 @@ struct SlamParams {
   int interpolation_window = 3;            ///< [cells] IDW window of eq. (12)
   double idw_power = 2.0;                  ///< p of eq. (12) [-]
   int max_iterations = 30;                 ///< Gauss-Newton iterations per scan [-]
+  double idw_weight = 0.5;                 ///< [-] an IDW-interpolated neighbour (eq. 12) counts this
+                                           ///< much of a measured one, so M_H keeps falling off a surface
+  double min_match_height = 0.0;           ///< [m] thinner scan HVoxels (floors, ceilings) do not take part:
+                                           ///< in the plane they only show the rings' pattern, which
+                                           ///< moves with the sensor and pulls the match back; 0 = all
+  double min_layer_height = 0.2;           ///< [m] shorter intervals are widened to this for eq. (9)
+  double robust_scale = 0.0;               ///< [-] Cauchy scale on 1 − M_H (moving objects); 0 = off
+  double convergence_translation = 0.001;  ///< [m] a smaller step ends Gauss-Newton
+  double convergence_rotation = 0.0001;    ///< [rad] a smaller step ends Gauss-Newton
+  double degeneracy_ratio = 0.1;           ///< [-] smallest / largest curvature of eq. (5) along the
+                                           ///< Hessian's eigenvectors under which a match is degenerate
+  int max_hvoxels = 0;                     ///< [-] HVoxels matched per scan at most (thinned evenly); 0 = all
+  double coarse_trigger_ratio = 0.85;      ///< [-] a match that does not converge, or whose mean M_H falls
+                                           ///< under this times the running mean, is retried by a coarse
+                                           ///< search; 0 = never
+  double coarse_translation = 0.5;         ///< [m] half-width of the coarse search in x and y
+  double coarse_rotation = 0.5;            ///< [rad] half-width of the coarse search in yaw
 };
 
 /// All parameters together.

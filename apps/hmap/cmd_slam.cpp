@@ -1,0 +1,163 @@
+// hmap slam: scans in, poses estimated by Gauss-Newton matching on the HMAP (section IV-C), the
+// map built at those poses.
+
+#include <cmath>
+#include <cstdio>
+
+#include "cli_common.hpp"
+#include "hmap/core/error.hpp"
+#include "hmap/io/atomic_file.hpp"
+#include "hmap/io/hmap_file.hpp"
+#include "hmap/io/kitti.hpp"
+#include "hmap/io/png.hpp"
+#include "hmap/io/poses.hpp"
+#include "hmap/slam/hmap_slam.hpp"
+#include "render.hpp"
+
+namespace hmap::cli {
+
+namespace {
+
+struct SlamOptions {
+  ParamOptions params;
+  std::string kitti;
+  std::vector<std::string> files;
+  std::string attitude_from;
+  std::string odometry;
+  std::string gt;
+  std::size_t scans = 0;
+  std::string out;
+};
+
+/// A pose file with one pose per scan (more allowed when --scans cut the sequence); in a KITTI
+/// folder with calib.txt the poses are turned into scanner poses as the folder's own are.
+PoseList read_scan_poses(const std::string& path, std::size_t scans, const std::optional<Pose>& T_cam_velo) {
+  PoseList poses = read_poses(path);
+  if (poses.size() < scans) {
+    throw InputError(path, "", "holds " + std::to_string(poses.size()) + " poses for " + std::to_string(scans) + " scans");
+  }
+  poses.resize(scans);
+  if (T_cam_velo) {
+    for (auto& P : poses) P = T_cam_velo->inverse() * P * *T_cam_velo;
+  }
+  return poses;
+}
+
+void run_slam(const SlamOptions& o) {
+  const Params params = o.params.resolve();
+  const ScanSource src = ScanSource::open(o.kitti, o.files, "", o.scans, /*poses_required=*/false);
+  const std::size_t n = src.scans.size();
+  std::optional<Pose> T_cam_velo;
+  std::vector<double> times;
+  if (!o.kitti.empty()) {
+    KittiSequenceOptions ko;
+    if (o.scans > 0) ko.max_scans = o.scans;
+    const KittiSequence seq = open_kitti_sequence(o.kitti, ko);
+    T_cam_velo = seq.T_cam_velo;
+    times = seq.times;
+  }
+  if (times.size() != n) {
+    times.resize(n);
+    for (std::size_t k = 0; k < n; ++k) times[k] = static_cast<double>(k);
+  }
+  std::optional<PoseList> attitude;
+  std::optional<PoseList> odometry;
+  std::optional<PoseList> truth;
+  if (!o.attitude_from.empty()) attitude = read_scan_poses(o.attitude_from, n, T_cam_velo);
+  if (!o.odometry.empty()) odometry = read_scan_poses(o.odometry, n, T_cam_velo);
+  if (!o.gt.empty()) truth = read_scan_poses(o.gt, n, T_cam_velo);
+
+  std::filesystem::create_directories(o.out);
+  slam::HmapSlam slam(params);
+  PoseList estimate;
+  CloudReadStats read_stats;
+  double ms_total = 0.0;
+  std::size_t converged = 0;
+  std::size_t degenerate = 0;
+  std::size_t coarse = 0;
+  std::size_t iterations = 0;
+  double score_sum = 0.0;
+  std::string log = "scan,matched,converged,iterations,initial_cost,final_cost,score,hvoxels,degenerate,coarse_search,"
+                    "eig0,eig1,eig2,guess_x,guess_y,guess_yaw,x,y,yaw,ms\n";
+  Progress progress("slam", n);
+  for (std::size_t k = 0; k < n; ++k) {
+    const PointCloud cloud = src.read(k, read_stats);
+    const auto t0 = Clock::now();
+    const slam::Attitude att = attitude ? slam::attitude_of((*attitude)[k]) : slam::Attitude{};
+    std::optional<slam::PlanarPose> guess;
+    if (odometry && k > 0) {
+      // Odometry gives the motion since the last scan; it is applied to the last estimate.
+      const slam::PlanarPose last = slam::planar_of(estimate.back());
+      guess = last * (slam::inverse(slam::planar_of((*odometry)[k - 1])) * slam::planar_of((*odometry)[k]));
+    } else if (k == 0 && (odometry || truth)) {
+      // The first scan defines the map frame: put it where the reference trajectory starts.
+      guess = slam::planar_of(odometry ? odometry->front() : truth->front());
+    }
+    const slam::SlamStep step = slam.process(cloud, att, guess);
+    const double ms = ms_since(t0);
+    ms_total += ms;
+    {
+      const auto& m = step.match;
+      const slam::PlanarPose xi = slam::planar_of(step.T_map_sensor);
+      char line[512];
+      std::snprintf(line, sizeof line, "%zu,%d,%d,%d,%.6g,%.6g,%.6g,%zu,%d,%d,%.6g,%.6g,%.6g,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.3f\n", k,
+                    step.matched ? 1 : 0, m.converged ? 1 : 0, m.iterations, m.initial_cost, m.final_cost, m.score,
+                    m.hvoxels_used, m.degenerate ? 1 : 0, m.coarse_search ? 1 : 0, m.eigenvalues(0), m.eigenvalues(1),
+                    m.eigenvalues(2), step.guess.x, step.guess.y, step.guess.yaw, xi.x, xi.y, xi.yaw, ms);
+      log += line;
+    }
+    estimate.push_back(step.T_map_sensor);
+    if (step.matched) {
+      converged += step.match.converged ? 1 : 0;
+      degenerate += step.match.degenerate ? 1 : 0;
+      coarse += step.match.coarse_search ? 1 : 0;
+      iterations += static_cast<std::size_t>(step.match.iterations);
+      score_sum += step.match.score;
+    }
+    progress.update(k + 1, ms_total / static_cast<double>(k + 1));
+  }
+  progress.finish();
+
+  const auto dir = std::filesystem::path(o.out);
+  write_poses_kitti(dir / "poses.txt", estimate);
+  write_poses_tum(dir / "poses_tum.txt", times, estimate);
+  write_file_atomic(dir / "matches.csv", log);
+  save_hmap(dir / "map.hmap", slam.map());
+  const HeightRange range = resolve_range(slam.map(), {});
+  TopViewport vp;
+  RgbImage picture = render_top(slam.map(), range, 2000, vp, 2.0);
+  if (truth) draw_path(picture, vp, *truth, 255, 255, 255);
+  draw_path(picture, vp, estimate, 255, 0, 255);
+  write_png(dir / "trajectory.png", picture);
+
+  const double matched = n > 1 ? static_cast<double>(n - 1) : 1.0;
+  const MapStats st = slam.map().stats();
+  std::printf(
+      "SLAM on %zu scans: %.1f ms per scan (%.1f scans/s, matching and map update), %.1f Gauss-Newton "
+      "iterations per scan, %zu of %zu matches converged, %zu degenerate, %zu needed the coarse search, mean "
+      "M_H %.3f. The map has %zu cells and %zu HVoxels (cell %.3f m). Wrote %s/{poses.txt, poses_tum.txt, "
+      "map.hmap, trajectory.png, matches.csv}%s.\n",
+      n, n > 0 ? ms_total / static_cast<double>(n) : 0.0,
+      ms_total > 0.0 ? 1000.0 * static_cast<double>(n) / ms_total : 0.0, static_cast<double>(iterations) / matched,
+      converged, n > 0 ? n - 1 : 0, degenerate, coarse, score_sum / matched, st.cells, st.hvoxels,
+      params.map.cell_size, o.out.c_str(), truth ? " (truth in white, estimate in magenta)" : "");
+}
+
+}  // namespace
+
+void add_slam_command(CLI::App& app) {
+  auto opts = std::make_shared<SlamOptions>();
+  auto* cmd = app.add_subcommand("slam", "Estimate planar poses by matching scans on the HMAP, and build the map");
+  cmd->add_option("--kitti", opts->kitti, "KITTI sequence folder (velodyne/*.bin, times.txt, calib.txt)");
+  cmd->add_option("scans", opts->files, "Scan files (.pcd .ply .bin .xyz .csv .txt), in order");
+  cmd->add_option("--attitude-from", opts->attitude_from,
+                  "Poses (KITTI or TUM) whose z, roll and pitch are used, like an IMU's");
+  cmd->add_option("--odometry", opts->odometry, "Odometry poses: the initial guess moves by their increments");
+  cmd->add_option("--gt", opts->gt, "True poses, drawn in trajectory.png");
+  cmd->add_option("--scans", opts->scans, "Use only the first N scans");
+  cmd->add_option("--out,-o", opts->out, "Output folder")->required();
+  opts->params.add_to(*cmd);
+  cmd->callback([opts] { run_slam(*opts); });
+}
+
+}  // namespace hmap::cli

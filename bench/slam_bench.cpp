@@ -1,0 +1,84 @@
+// Micro-benchmarks of SLAM on the HMAP ($HMAP_DATA_DIR, default ../shared/data): matching one
+// HDL-64 scan of kitti_hdl64_seq16 against the map of the previous ones, and a whole SLAM step
+// (matching plus map update), at 0.2 m cells and 50 m range.
+
+#include <benchmark/benchmark.h>
+
+#include <cstdlib>
+#include <filesystem>
+
+#include "hmap/io/kitti.hpp"
+#include "hmap/slam/hmap_slam.hpp"
+
+namespace {
+
+std::filesystem::path slam_data_dir() {
+  if (const char* env = std::getenv("HMAP_DATA_DIR"); env != nullptr && *env != '\0') return env;
+  return HMAP_DEFAULT_DATA_DIR;
+}
+
+const std::vector<hmap::PointCloud>& seq16_scans() {
+  static const std::vector<hmap::PointCloud> scans = [] {
+    std::vector<hmap::PointCloud> out;
+    const auto dir = slam_data_dir() / "kitti_hdl64_seq16";
+    if (!std::filesystem::exists(dir)) return out;
+    const auto seq = hmap::open_kitti_sequence(dir);
+    for (const auto& p : seq.scan_paths) out.push_back(hmap::read_kitti_bin(p));
+    return out;
+  }();
+  return scans;
+}
+
+hmap::Params seq16_params() {
+  hmap::Params p = hmap::outdoor_preset();
+  p.map.cell_size = 0.2;
+  p.map.max_range = 50.0;
+  return p;
+}
+
+// The last scan matched against the map SLAM built from the 15 before it (HVoxelisation of the
+// scan in its level frame included, map update not).
+void BM_SlamMatchHdl64(benchmark::State& state) {
+  const auto& scans = seq16_scans();
+  if (scans.size() < 2) {
+    state.SkipWithError("kitti_hdl64_seq16 is absent: set HMAP_DATA_DIR");
+    return;
+  }
+  const hmap::Params p = seq16_params();
+  hmap::slam::HmapSlam slam(p);
+  for (std::size_t k = 0; k + 1 < scans.size(); ++k) slam.process(scans[k], {});
+  const hmap::slam::PlanarPose guess = slam.predict();
+  hmap::ScanHVoxelizer level(p.map);
+  hmap::ScanHVoxels scan_level;
+  hmap::slam::ScanMatcher matcher(p);
+  int iterations = 0;
+  std::size_t used = 0;
+  for (auto _ : state) {
+    level.build(scans.back(), hmap::Pose::Identity(), scan_level);
+    const auto r = matcher.match(scan_level, slam.map(), guess);
+    iterations += r.iterations;
+    used = r.hvoxels_used;
+  }
+  state.counters["iterations"] = static_cast<double>(iterations) / static_cast<double>(state.iterations());
+  state.counters["hvoxels"] = static_cast<double>(used);
+}
+BENCHMARK(BM_SlamMatchHdl64)->Unit(benchmark::kMillisecond);
+
+// Whole SLAM steps over the 16 scans, map rebuilt each pass: matching plus map update per scan.
+void BM_SlamStepHdl64(benchmark::State& state) {
+  const auto& scans = seq16_scans();
+  if (scans.empty()) {
+    state.SkipWithError("kitti_hdl64_seq16 is absent: set HMAP_DATA_DIR");
+    return;
+  }
+  std::size_t steps = 0;
+  for (auto _ : state) {
+    hmap::slam::HmapSlam slam(seq16_params());
+    for (const auto& scan : scans) slam.process(scan, {});
+    steps += scans.size();
+  }
+  state.counters["scans/s"] = benchmark::Counter(static_cast<double>(steps), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_SlamStepHdl64)->Unit(benchmark::kMillisecond);
+
+}  // namespace

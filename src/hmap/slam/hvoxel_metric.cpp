@@ -1,0 +1,149 @@
+#include "hmap/slam/hvoxel_metric.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace hmap::slam {
+
+float interval_iou(const Interval& a, const Interval& b) {
+  const float inter = a.overlap(b);
+  const float uni = a.height() + b.height() - inter;
+  return uni > 0.0F ? inter / uni : 0.0F;
+}
+
+LayerMatch match_layer(const Interval& layer, std::span<const HVoxel> column, float min_height) {
+  LayerMatch m;
+  float inter_sum = 0.0F;
+  float union_sum = 0.0F;
+  for (const HVoxel& v : column) {
+    const Interval w = widened(v.interval(), min_height);
+    if (w.z_max < layer.z_min) continue;
+    if (w.z_min > layer.z_max) break;  // sorted by height
+    const float inter = layer.overlap(w);
+    if (inter <= 0.0F) continue;
+    inter_sum += inter;
+    union_sum += layer.height() + w.height() - inter;
+    if (!m.present) {
+      m.hull = v.interval();
+      m.present = true;
+    } else {
+      m.hull.z_min = std::min(m.hull.z_min, v.z_min);
+      m.hull.z_max = std::max(m.hull.z_max, v.z_max);
+    }
+  }
+  m.iou = union_sum > 0.0F ? inter_sum / union_sum : 0.0F;
+  return m;
+}
+
+MetricSample bilinear(const std::array<float, 4>& F, float a, float b, float cell_size) {
+  // F[0] = F00 (x0, y0), F[1] = F10 (x1, y0), F[2] = F01 (x0, y1), F[3] = F11 (x1, y1).
+  MetricSample s;
+  s.value = b * (a * F[3] + (1.0F - a) * F[2]) + (1.0F - b) * (a * F[1] + (1.0F - a) * F[0]);  // eq. (10)
+  // eq. (11), with the paper's ∂/∂y typo fixed (differences along y, weighted along x) and the
+  // cell size made explicit so the gradient is per metre.
+  s.gradient.x() = (b * (F[3] - F[2]) + (1.0F - b) * (F[1] - F[0])) / cell_size;
+  s.gradient.y() = (a * (F[3] - F[1]) + (1.0F - a) * (F[2] - F[0])) / cell_size;
+  return s;
+}
+
+void LocalMapView::reset(const HMap& map, const CellKey& center, std::int32_t half_cells) {
+  map_ = &map;
+  const CellKey lo = HMap::tile_of({center.i - half_cells, center.j - half_cells});
+  const CellKey hi = HMap::tile_of({center.i + half_cells, center.j + half_cells});
+  tile_min_ = lo;
+  tiles_wide_ = std::max(hi.i - lo.i, hi.j - lo.j) + 1;
+  tile_base_.assign(static_cast<std::size_t>(tiles_wide_) * static_cast<std::size_t>(tiles_wide_), nullptr);
+  for (std::int32_t ti = 0; ti < tiles_wide_; ++ti) {
+    for (std::int32_t tj = 0; tj < tiles_wide_; ++tj) {
+      // column() of a tile's first cell points at cells[0] of that tile (or is null).
+      const CellKey first{(lo.i + ti) * HMap::kTileSize, (lo.j + tj) * HMap::kTileSize};
+      tile_base_[static_cast<std::size_t>(ti) * static_cast<std::size_t>(tiles_wide_) +
+                 static_cast<std::size_t>(tj)] = map.column(first);
+    }
+  }
+}
+
+std::span<const HVoxel> LocalMapView::column(const CellKey& key) const {
+  const CellKey t = HMap::tile_of(key);
+  const std::int32_t ti = t.i - tile_min_.i;
+  const std::int32_t tj = t.j - tile_min_.j;
+  const Column* c = nullptr;
+  if (ti >= 0 && tj >= 0 && ti < tiles_wide_ && tj < tiles_wide_) {
+    const Column* base = tile_base_[static_cast<std::size_t>(ti) * static_cast<std::size_t>(tiles_wide_) +
+                                    static_cast<std::size_t>(tj)];
+    if (base != nullptr) c = base + HMap::local_index(key);
+  } else if (map_ != nullptr) {
+    c = map_->column(key);
+  }
+  return c != nullptr ? c->hvoxels() : std::span<const HVoxel>{};
+}
+
+LayerInterpolator::LayerInterpolator(const Params& params)
+    : half_window_(params.slam.interpolation_window / 2),
+      min_height_(static_cast<float>(params.slam.min_layer_height)),
+      idw_weight_(static_cast<float>(params.slam.idw_weight)),
+      cell_(static_cast<float>(params.map.cell_size)) {
+  const int w = 2 * half_window_ + 1;
+  idw_weight_of_offset_.assign(static_cast<std::size_t>(w * w), 0.0F);
+  for (int di = -half_window_; di <= half_window_; ++di) {
+    for (int dj = -half_window_; dj <= half_window_; ++dj) {
+      if (di == 0 && dj == 0) continue;
+      const double d = params.map.cell_size * std::hypot(di, dj);  // ‖v − v_i‖ between cell centres [m]
+      idw_weight_of_offset_[static_cast<std::size_t>((di + half_window_) * w + dj + half_window_)] =
+          static_cast<float>(1.0 / std::pow(d, params.slam.idw_power));
+    }
+  }
+}
+
+std::array<float, 4> LayerInterpolator::corner_values(const LocalMapView& view, const Interval& layer,
+                                                      const CellKey& base) const {
+  std::array<float, 4> F{};
+  std::array<LayerMatch, 4> corner;
+  bool all_present = true;
+  for (int c = 0; c < 4; ++c) {
+    const CellKey k{base.i + (c & 1), base.j + (c >> 1)};
+    corner[static_cast<std::size_t>(c)] = match_layer(layer, view.column(k), min_height_);
+    all_present = all_present && corner[static_cast<std::size_t>(c)].present;
+    F[static_cast<std::size_t>(c)] = corner[static_cast<std::size_t>(c)].iou;
+  }
+  if (all_present || half_window_ == 0) return F;
+
+  // eq. (12): the windows of the four corners together cover a (w+1)² block; read it once.
+  constexpr int kMaxBlock = 10;  // interpolation_window <= 9
+  const int h = half_window_;
+  const int block = 2 * h + 2;
+  std::array<LayerMatch, kMaxBlock * kMaxBlock> cells;
+  std::array<bool, kMaxBlock * kMaxBlock> read{};
+  const int w = 2 * h + 1;
+  for (int c = 0; c < 4; ++c) {
+    if (corner[static_cast<std::size_t>(c)].present) continue;
+    const int ci = (c & 1) + h;  // corner position in the block
+    const int cj = (c >> 1) + h;
+    float weight_sum = 0.0F;
+    float z_min = 0.0F;
+    float z_max = 0.0F;
+    for (int di = -h; di <= h; ++di) {
+      for (int dj = -h; dj <= h; ++dj) {
+        if (di == 0 && dj == 0) continue;
+        const int bi = ci + di;
+        const int bj = cj + dj;
+        const auto idx = static_cast<std::size_t>(bi * block + bj);
+        if (!read[idx]) {
+          cells[idx] = match_layer(layer, view.column({base.i - h + bi, base.j - h + bj}), min_height_);
+          read[idx] = true;
+        }
+        if (!cells[idx].present) continue;
+        const float wgt = idw_weight_of_offset_[static_cast<std::size_t>((di + h) * w + dj + h)];
+        weight_sum += wgt;
+        z_min += wgt * cells[idx].hull.z_min;
+        z_max += wgt * cells[idx].hull.z_max;
+      }
+    }
+    if (weight_sum <= 0.0F) continue;  // nothing in the layer around: F stays 0
+    const Interval v_idw = widened({z_min / weight_sum, z_max / weight_sum}, min_height_);
+    F[static_cast<std::size_t>(c)] = idw_weight_ * interval_iou(layer, v_idw);
+  }
+  return F;
+}
+
+}  // namespace hmap::slam

@@ -1,0 +1,285 @@
+#include "hmap/slam/scan_matcher.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace hmap::slam {
+
+namespace {
+
+/// Steps longer than this many cells are shortened: the metric is only informative within a
+/// couple of cells of the surfaces, and a long step from a flat Hessian jumps out of the basin.
+constexpr double kMaxStepCells = 4.0;
+/// The coarse search scores the pose with at most this many HVoxels.
+constexpr std::size_t kCoarseHVoxels = 200;
+/// The degeneracy check evaluates the cost with at most this many HVoxels.
+constexpr std::size_t kCurvatureHVoxels = 500;
+
+}  // namespace
+
+ScanMatcher::ScanMatcher(const Params& params) : params_(params), interpolator_((validate(params), params)) {}
+
+void ScanMatcher::select(const ScanHVoxels& scan_level) {
+  // "Height-Voxel Selection": only HVoxels whose density reaches n_th take part.
+  candidates_.clear();
+  const double s = params_.map.cell_size;
+  const auto n_th = static_cast<float>(params_.map.density_threshold);
+  const auto min_height = static_cast<float>(params_.slam.min_layer_height);
+  const auto min_match = static_cast<float>(params_.slam.min_match_height);
+  std::size_t eligible = 0;
+  for (const ScanCell& cell : scan_level.cells) {
+    for (const HVoxel& v : scan_level.hvoxels_of(cell)) eligible += v.density >= n_th && v.height() >= min_match ? 1 : 0;
+  }
+  const auto cap = static_cast<std::size_t>(std::max(0, params_.slam.max_hvoxels));
+  // Evenly thinned to the cap: keep candidate k when its running index crosses a multiple of n/cap.
+  const double keep_every = cap > 0 && eligible > cap ? static_cast<double>(eligible) / static_cast<double>(cap) : 1.0;
+  double next = 0.0;
+  std::size_t index = 0;
+  double radius_sq = 0.0;
+  for (const ScanCell& cell : scan_level.cells) {
+    const Eigen::Vector2f v{static_cast<float>((cell.key.i + 0.5) * s), static_cast<float>((cell.key.j + 0.5) * s)};
+    for (const HVoxel& h : scan_level.hvoxels_of(cell)) {
+      if (h.density < n_th || h.height() < min_match) continue;
+      if (static_cast<double>(index++) < next) continue;
+      next += keep_every;
+      Candidate c;
+      c.v = v;
+      c.layer = widened(h.interval(), min_height);
+      candidates_.push_back(c);
+      radius_sq += static_cast<double>(v.squaredNorm());
+    }
+  }
+  rms_radius_ = candidates_.empty() ? 1.0 : std::max(s, std::sqrt(radius_sq / static_cast<double>(candidates_.size())));
+}
+
+ScanMatcher::Linearization ScanMatcher::linearize(const PlanarPose& pose, std::size_t stride) {
+  Linearization lin;
+  const auto s = static_cast<float>(params_.map.cell_size);
+  const auto c = static_cast<float>(std::sin(pose.yaw));
+  const auto co = static_cast<float>(std::cos(pose.yaw));
+  const auto robust = static_cast<float>(params_.slam.robust_scale);
+  double h00 = 0, h01 = 0, h02 = 0, h11 = 0, h12 = 0, h22 = 0, g0 = 0, g1 = 0, g2 = 0, cost = 0, score = 0;
+  for (std::size_t k = 0; k < candidates_.size(); k += stride) {
+    Candidate& cand = candidates_[k];
+    // eq. (6): S_i(ξ) = R(φ) v + p.
+    const float qx = co * cand.v.x() - c * cand.v.y() + static_cast<float>(pose.x);
+    const float qy = c * cand.v.x() + co * cand.v.y() + static_cast<float>(pose.y);
+    // Cell centres sit at (i + 0.5)·s: (i0, j0) is the centre below and left of q.
+    const float u = qx / s - 0.5F;
+    const float w = qy / s - 0.5F;
+    const float fu = std::floor(u);
+    const float fw = std::floor(w);
+    const CellKey base{static_cast<std::int32_t>(fu), static_cast<std::int32_t>(fw)};
+    if (!(base == cand.base)) {
+      // The four F values depend only on the layer and the cells: cached until q leaves them.
+      cand.F = interpolator_.corner_values(view_, cand.layer, base);
+      cand.base = base;
+    }
+    const MetricSample m = bilinear(cand.F, u - fu, w - fw, s);
+    const float r = 1.0F - m.value;
+    // ∂S/∂φ = (−sin φ v_x − cos φ v_y, cos φ v_x − sin φ v_y).
+    const float dx_dyaw = -c * cand.v.x() - co * cand.v.y();
+    const float dy_dyaw = co * cand.v.x() - c * cand.v.y();
+    const double j0 = m.gradient.x();
+    const double j1 = m.gradient.y();
+    const double j2 = m.gradient.x() * dx_dyaw + m.gradient.y() * dy_dyaw;
+    double wgt = 1.0;
+    if (robust > 0.0F) {
+      // Cauchy: w = 1 / (1 + (r/c)²), loss c²·ln(1 + (r/c)²).
+      const double t = static_cast<double>(r / robust);
+      wgt = 1.0 / (1.0 + t * t);
+      cost += static_cast<double>(robust * robust) * std::log1p(t * t);
+    } else {
+      cost += static_cast<double>(r) * r;
+    }
+    h00 += wgt * j0 * j0;
+    h01 += wgt * j0 * j1;
+    h02 += wgt * j0 * j2;
+    h11 += wgt * j1 * j1;
+    h12 += wgt * j1 * j2;
+    h22 += wgt * j2 * j2;
+    g0 += wgt * r * j0;
+    g1 += wgt * r * j1;
+    g2 += wgt * r * j2;
+    score += m.value;
+  }
+  lin.H << h00, h01, h02, h01, h11, h12, h02, h12, h22;  // eq. (8)
+  lin.g << g0, g1, g2;                                     // the sum of eq. (7)
+  lin.cost = cost;
+  lin.score = score;
+  return lin;
+}
+
+Eigen::Vector3d ScanMatcher::solve(const Linearization& lin, bool& degenerate, Eigen::Vector3d& eigenvalues) const {
+  // eq. (7), Δξ = H⁻¹ g, solved in the eigenbasis of H with yaw scaled to metres at the RMS radius:
+  // directions whose eigenvalue is under degeneracy_ratio · λ_max are not moved (the guess, from
+  // odometry or constant velocity, is kept along them).
+  const Eigen::Vector3d d(1.0, 1.0, 1.0 / rms_radius_);
+  const Eigen::Matrix3d Hs = d.asDiagonal() * lin.H * d.asDiagonal();
+  const Eigen::Vector3d gs = d.asDiagonal() * lin.g;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(Hs);
+  eigenvalues = eig.eigenvalues();
+  const double lmax = eigenvalues(2);
+  degenerate = !(lmax > 0.0) || eigenvalues(0) < params_.slam.degeneracy_ratio * lmax;
+  Eigen::Vector3d step_s = Eigen::Vector3d::Zero();
+  if (!(lmax > 0.0)) return step_s;
+  for (int k = 0; k < 3; ++k) {
+    const double l = eigenvalues(k);
+    if (l < params_.slam.degeneracy_ratio * lmax || l <= 0.0) continue;
+    const Eigen::Vector3d u = eig.eigenvectors().col(k);
+    step_s += (u.dot(gs) / l) * u;
+  }
+  Eigen::Vector3d step = d.asDiagonal() * step_s;
+  const double max_step = kMaxStepCells * params_.map.cell_size;
+  const double t = std::hypot(step(0), step(1));
+  const double r = std::abs(step(2)) * rms_radius_;
+  const double longest = std::max(t, r);
+  if (longest > max_step) step *= max_step / longest;
+  return step;
+}
+
+void ScanMatcher::assess_degeneracy(MatchResult& result) {
+  // The Gauss-Newton Hessian Σ JᵀJ also grows with gradients that cancel between HVoxels (the ring
+  // pattern on a corridor's walls changes with x, but not on average): it is the curvature of
+  // the cost itself, one cell either side along each eigenvector, that tells a corridor.
+  const double h = params_.map.cell_size;
+  const Eigen::Vector3d d(1.0, 1.0, 1.0 / rms_radius_);
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(d.asDiagonal() * result.hessian * d.asDiagonal());
+  const std::size_t stride = std::max<std::size_t>(1, candidates_.size() / kCurvatureHVoxels);
+  std::size_t used = 0;
+  for (std::size_t k = 0; k < candidates_.size(); k += stride) ++used;
+  const PlanarPose& p = result.pose;
+  const double f0 = linearize(p, stride).cost;
+  for (int k = 0; k < 3; ++k) {
+    const Eigen::Vector3d step = d.asDiagonal() * (h * eig.eigenvectors().col(k));
+    const double fp = linearize({p.x + step(0), p.y + step(1), p.yaw + step(2)}, stride).cost;
+    const double fm = linearize({p.x - step(0), p.y - step(1), p.yaw - step(2)}, stride).cost;
+    result.curvature(k) = (fp + fm - 2.0 * f0) / (h * h) / static_cast<double>(used);
+  }
+  const double cmax = result.curvature.maxCoeff();
+  result.degenerate = !(cmax > 0.0) || result.curvature.minCoeff() < params_.slam.degeneracy_ratio * cmax;
+}
+
+MatchResult ScanMatcher::gauss_newton(const PlanarPose& guess) {
+  MatchResult result;
+  const auto n = static_cast<double>(candidates_.size());
+  PlanarPose pose = guess;
+  Linearization lin = linearize(pose, 1);
+  result.initial_cost = lin.cost / n;
+  bool degenerate = false;
+  Eigen::Vector3d eigenvalues;
+  for (int it = 0; it < params_.slam.max_iterations; ++it) {
+    Eigen::Vector3d step = solve(lin, degenerate, eigenvalues);
+    ++result.iterations;
+    // The metric is piecewise bilinear: a full step may overshoot, so halve it until the cost drops.
+    bool accepted = false;
+    PlanarPose next;
+    Linearization next_lin;
+    for (int tries = 0; tries < 4 && step.norm() > 0.0; ++tries, step *= 0.5) {
+      next = {pose.x + step(0), pose.y + step(1), pose.yaw + step(2)};
+      next_lin = linearize(next, 1);
+      if (next_lin.cost <= lin.cost) {
+        accepted = true;
+        break;
+      }
+    }
+    if (!accepted) {  // no descent along the Gauss-Newton direction: a minimum of eq. (5)
+      result.converged = true;
+      break;
+    }
+    pose = next;
+    lin = next_lin;
+    if (std::hypot(step(0), step(1)) < params_.slam.convergence_translation &&
+        std::abs(step(2)) < params_.slam.convergence_rotation) {
+      result.converged = true;
+      break;
+    }
+  }
+  (void)solve(lin, degenerate, eigenvalues);
+  result.pose = pose;
+  result.final_cost = lin.cost / n;
+  result.score = lin.score / n;
+  result.hvoxels_used = candidates_.size();
+  result.hessian = lin.H;
+  result.eigenvalues = eigenvalues;
+  result.degenerate = degenerate;
+  return result;
+}
+
+std::vector<PlanarPose> ScanMatcher::coarse_search(const PlanarPose& guess) {
+  // An exhaustive grid around the guess, scored on a thinned set of HVoxels. The steps are two
+  // cells, in yaw two cells at the RMS radius: about the basin of Gauss-Newton, which refines.
+  const std::size_t stride = std::max<std::size_t>(1, candidates_.size() / kCoarseHVoxels);
+  const double cell = params_.map.cell_size;
+  const double dt = 2.0 * cell;
+  const double dr = 2.0 * cell / rms_radius_;
+  const int nt = static_cast<int>(std::ceil(params_.slam.coarse_translation / dt));
+  const int nr = static_cast<int>(std::ceil(params_.slam.coarse_rotation / dr));
+  struct Scored {
+    double cost;
+    PlanarPose pose;
+  };
+  std::array<Scored, kCoarseStarts> best;
+  best.fill({std::numeric_limits<double>::infinity(), guess});
+  for (int a = -nr; a <= nr; ++a) {
+    for (int i = -nt; i <= nt; ++i) {
+      for (int j = -nt; j <= nt; ++j) {
+        const PlanarPose p{guess.x + i * dt, guess.y + j * dt, guess.yaw + a * dr};
+        const double cost = linearize(p, stride).cost;
+        if (cost >= best.back().cost) continue;
+        best.back() = {cost, p};
+        std::sort(best.begin(), best.end(), [](const Scored& x, const Scored& y) { return x.cost < y.cost; });
+      }
+    }
+  }
+  std::vector<PlanarPose> starts;
+  for (const Scored& b : best) {
+    if (std::isfinite(b.cost)) starts.push_back(b.pose);
+  }
+  return starts;
+}
+
+MatchResult ScanMatcher::match(const ScanHVoxels& scan_level, const HMap& map, const PlanarPose& guess,
+                               CoarseSearch search) {
+  select(scan_level);
+  if (candidates_.empty()) {
+    MatchResult none;
+    none.pose = guess;
+    none.degenerate = true;
+    return none;
+  }
+  const auto center = map.key_of(guess.x, guess.y).value_or(CellKey{});
+  const double reach = params_.map.max_range + params_.slam.coarse_translation + 2.0 * params_.map.cell_size;
+  const auto half = static_cast<std::int32_t>(std::ceil(reach / params_.map.cell_size)) +
+                    params_.slam.interpolation_window;
+  view_.reset(map, center, half);
+
+  MatchResult result = gauss_newton(guess);
+  // Failure: Gauss-Newton ran out of iterations, or the match is much worse than the recent ones.
+  const double ratio = params_.slam.coarse_trigger_ratio;
+  const bool failed = search == CoarseSearch::kAlways || !result.converged ||
+                      (reference_score_ > 0.0 && result.score < ratio * reference_score_);
+  if (failed && ratio > 0.0) {
+    const int iterations = result.iterations;
+    const double initial_cost = result.initial_cost;
+    for (const PlanarPose& start : coarse_search(guess)) {
+      MatchResult retry = gauss_newton(start);
+      if (retry.final_cost < result.final_cost) result = retry;
+    }
+    result.iterations = iterations + result.iterations;
+    result.initial_cost = initial_cost;
+    result.coarse_search = true;
+  }
+  assess_degeneracy(result);
+  reference_score_ = reference_score_ > 0.0 ? 0.8 * reference_score_ + 0.2 * result.score : result.score;
+  return result;
+}
+
+double ScanMatcher::cost_at(const PlanarPose& pose) {
+  if (candidates_.empty()) return 0.0;
+  return linearize(pose, 1).cost / static_cast<double>(candidates_.size());
+}
+
+}  // namespace hmap::slam

@@ -1,0 +1,97 @@
+#pragma once
+// Gauss-Newton matching of a scan's HVoxels against the HMAP (section IV-C, eq. 5-8).
+
+#include <Eigen/Core>
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "hmap/core/params.hpp"
+#include "hmap/maps/hmap.hpp"
+#include "hmap/maps/scan_hvoxels.hpp"
+#include "hmap/slam/hvoxel_metric.hpp"
+
+namespace hmap::slam {
+
+/// ξ = (p_x, p_y, φ) of eq. (5): the planar part of T_map_sensor.
+struct PlanarPose {
+  double x = 0.0;    ///< [m]
+  double y = 0.0;    ///< [m]
+  double yaw = 0.0;  ///< [rad]
+};
+
+/// What one match did. The Hessian and its eigenvalues are reported so that an ill-constrained
+/// match (a featureless corridor) is visible, not hidden.
+struct MatchResult {
+  PlanarPose pose;                 ///< the estimate ξ*
+  bool converged = false;          ///< the last step was below the convergence thresholds
+  int iterations = 0;              ///< Gauss-Newton steps taken (the coarse search's included)
+  double initial_cost = 0.0;       ///< eq. (5) per HVoxel, (1/n) Σ w (1 − M_H)², at the guess
+  double final_cost = 0.0;         ///< the same at ξ*
+  double score = 0.0;              ///< mean M_H at ξ* [0, 1]: 1 = every HVoxel matches its column
+  std::size_t hvoxels_used = 0;    ///< scan HVoxels above the density threshold that took part
+  Eigen::Matrix3d hessian = Eigen::Matrix3d::Zero();  ///< eq. (8) at ξ*, in (m, m, rad)
+  /// Eigenvalues of the Hessian with yaw scaled by the HVoxels' RMS radius (so all three are in
+  /// 1/m²), ascending.
+  Eigen::Vector3d eigenvalues = Eigen::Vector3d::Zero();
+  /// Curvature of eq. (5) per HVoxel along the three eigenvectors (same order), by central
+  /// differences one cell wide: the information that survives averaging over the HVoxels.
+  Eigen::Vector3d curvature = Eigen::Vector3d::Zero();
+  bool degenerate = false;         ///< smallest / largest curvature < slam.degeneracy_ratio
+  bool coarse_search = false;      ///< the coarse search ran (Gauss-Newton looked failed)
+};
+
+/// When the coarse search runs.
+enum class CoarseSearch : std::uint8_t {
+  kWhenFailed,  ///< Gauss-Newton did not converge or scored under the trigger (slam.coarse_trigger_ratio)
+  kAlways,      ///< also after a converged match: for a guess with no motion prior (the second scan)
+};
+
+/// Matches scans against a map. Holds its buffers, so that matching allocates nothing once warm.
+class ScanMatcher {
+ public:
+  /// Throws hmap::Error for invalid parameters.
+  explicit ScanMatcher(const Params& params);
+
+  /// Selects the HVoxels of `scan_level` with ρ >= n_th ("Height-Voxel Selection") and
+  /// minimises eq. (5) from `guess`. `scan_level` is the scan's HVoxel representation in the
+  /// gravity-aligned sensor frame (z, roll and pitch applied; x = y = yaw = 0): its cell centres
+  /// are the v_x, v_y of eq. (6).
+  [[nodiscard]] MatchResult match(const ScanHVoxels& scan_level, const HMap& map, const PlanarPose& guess,
+                                  CoarseSearch search = CoarseSearch::kWhenFailed);
+
+  /// eq. (5) per HVoxel at ξ for the HVoxels selected by the last match() (for tests and tools).
+  [[nodiscard]] double cost_at(const PlanarPose& pose);
+
+ private:
+  struct Candidate {
+    Eigen::Vector2f v;                 // v_x, v_y of eq. (6) [m]
+    Interval layer;                    // widened to slam.min_layer_height
+    CellKey base{INT32_MIN, INT32_MIN};  // cached: the cell (i0, j0) the F values belong to
+    std::array<float, 4> F{};
+  };
+  struct Linearization {
+    Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d g = Eigen::Vector3d::Zero();
+    double cost = 0.0;   // Σ w r²
+    double score = 0.0;  // Σ M_H
+  };
+
+  void select(const ScanHVoxels& scan_level);
+  Linearization linearize(const PlanarPose& pose, std::size_t stride);
+  [[nodiscard]] Eigen::Vector3d solve(const Linearization& lin, bool& degenerate, Eigen::Vector3d& eigenvalues) const;
+  void assess_degeneracy(MatchResult& result);
+  MatchResult gauss_newton(const PlanarPose& guess);
+  /// The kCoarseStarts best poses of a grid around the guess, best first.
+  std::vector<PlanarPose> coarse_search(const PlanarPose& guess);
+  static constexpr std::size_t kCoarseStarts = 3;
+
+  Params params_;
+  LayerInterpolator interpolator_;
+  LocalMapView view_;
+  std::vector<Candidate> candidates_;
+  double rms_radius_ = 1.0;
+  double reference_score_ = 0.0;  // running mean of the scores of the last matches
+};
+
+}  // namespace hmap::slam
