@@ -2,14 +2,19 @@
 
 #include <unistd.h>
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 
 #include "hmap/core/error.hpp"
 #include "hmap/io/cloud_reader.hpp"
 #include "hmap/io/config.hpp"
+#include "hmap/io/gravity.hpp"
 #include "hmap/io/kitti.hpp"
 #include "hmap/io/poses.hpp"
+#include "hmap/io/rgbd.hpp"
+#include "hmap/io/vtk.hpp"
 
 namespace hmap::cli {
 
@@ -72,9 +77,133 @@ ScanSource ScanSource::open(const std::string& kitti_dir, const std::vector<std:
   return src;
 }
 
+void ScanSourceOptions::add_to(CLI::App& app) {
+  app.add_option("--rgbd", rgbd, "RGB-D folder: 7-Scenes (frame-N.depth.png + .pose.txt) or TUM (depth.txt + groundtruth.txt)");
+  app.add_option("--tum", tum, "TUM RGB-D folder (depth.txt, groundtruth.txt; depth in 1/5000 m)");
+  app.add_option("--intrinsics", intrinsics, "Depth camera intrinsics file: fx fy cx cy, or a 3x3 matrix");
+  app.add_option("--depth-scale", depth_scale, "Metres per depth unit (7-Scenes 0.001, TUM 0.0002)");
+  app.add_option("--up", up,
+                 "Up axis of the data's world frame (x, y, z with a sign, e.g. -y), or 'floor' to estimate it from "
+                 "the dominant floor plane (the default for RGB-D)");
+  app.add_option("--rotation", rotation, "Rotation T_map_world making the map frame gravity-aligned: 9 numbers, row-major");
+  app.add_option("--bag", bag, "ROS 1 bag (sensor_msgs/PointCloud2 + /tf or an odometry topic)");
+  app.add_option("--cloud-topic", cloud_topic, "PointCloud2 topic of the bag");
+  app.add_option("--pose-topic", pose_topic, "nav_msgs/Odometry (or PoseStamped) topic of the bag giving the cloud poses");
+  app.add_option("--tf-frames", tf_frames, "MAP [SENSOR]: poses from /tf, map frame to the cloud's (or SENSOR) frame")
+      ->expected(1, 2);
+}
+
+namespace {
+
+/// The depth images of an RGB-D folder, back-projected one at a time.
+class RgbdFrames final : public FrameReader {
+ public:
+  explicit RgbdFrames(RgbdSequence seq) : seq_(std::move(seq)) {}
+  [[nodiscard]] PointCloud read(std::size_t index, CloudReadStats& stats) const override {
+    return read_rgbd_frame(seq_, index, &stats);
+  }
+
+ private:
+  RgbdSequence seq_;
+};
+
+/// T_map_world from --rotation, --up AXIS or --up floor (the dominant near-horizontal plane of a
+/// few frames, up to 8 spread over the run, 20k points each at most).
+void make_gravity_aligned(ScanSource& src, const ScanSourceOptions& o, bool rgbd) {
+  std::string up = o.up;
+  if (up.empty() && o.rotation.empty() && rgbd) up = "floor";
+  if (up.empty() && o.rotation.empty()) return;
+  if (!up.empty() && !o.rotation.empty()) throw Error("give either --up or --rotation, not both");
+  if (!src.T_map_scan) throw Error("--up and --rotation turn the poses of the scans; these scans have none");
+  auto& poses = *src.T_map_scan;
+  Pose T_map_world = Pose::Identity();
+  if (!o.rotation.empty()) {
+    T_map_world = parse_rotation(o.rotation);
+  } else if (up == "floor") {
+    // The cameras' (or scanners') own up vectors give the prior: −y of an optical frame, +z otherwise.
+    Eigen::Vector3d prior = Eigen::Vector3d::Zero();
+    for (const auto& T : poses) prior += rgbd ? Eigen::Vector3d(-T.linear().col(1)) : Eigen::Vector3d(T.linear().col(2));
+    PointCloud points_world;
+    const std::size_t frames = std::min<std::size_t>(8, src.scans.size());
+    CloudReadStats ignored;
+    for (std::size_t f = 0; f < frames; ++f) {
+      const std::size_t k = frames > 1 ? f * (src.scans.size() - 1) / (frames - 1) : 0;
+      const PointCloud cloud = src.read(k, ignored);
+      const std::size_t step = std::max<std::size_t>(1, cloud.size() / 20000);
+      for (std::size_t i = 0; i < cloud.size(); i += step) {
+        points_world.push_back((poses[k] * cloud[i].cast<double>()).cast<float>());
+      }
+    }
+    const FloorEstimate floor = estimate_floor(points_world, prior);
+    if (!floor.found) {
+      throw Error("no floor plane found in " + std::to_string(frames) + " frames; give the up axis with --up AXIS");
+    }
+    T_map_world = gravity_rotation(floor.up_world);
+    char buf[160];
+    std::snprintf(buf, sizeof buf, "; up from the floor plane (%.3f, %.3f, %.3f), %zu of %zu points on it", floor.up_world.x(),
+                  floor.up_world.y(), floor.up_world.z(), floor.inliers, floor.points);
+    src.description += buf;
+  } else {
+    T_map_world = gravity_rotation(parse_up_axis(up));
+    src.description += "; world up axis " + up;
+  }
+  for (auto& T : poses) T = T_map_world * T;
+}
+
+}  // namespace
+
+ScanSource ScanSource::open(const ScanSourceOptions& o, const std::string& kitti_dir,
+                            const std::vector<std::string>& files, const std::string& poses_file, std::size_t max_scans,
+                            bool poses_required) {
+  const int inputs = static_cast<int>(!o.rgbd.empty()) + static_cast<int>(!o.tum.empty()) + static_cast<int>(!o.bag.empty()) +
+                     static_cast<int>(!kitti_dir.empty()) + static_cast<int>(!files.empty());
+  if (inputs > 1) throw Error("give one input: --kitti DIR, scan files, --rgbd DIR, --tum DIR or --bag FILE");
+  if (!o.any_input()) {
+    ScanSource src = open(kitti_dir, files, poses_file, max_scans, poses_required);
+    make_gravity_aligned(src, o, false);
+    return src;
+  }
+  if (!poses_file.empty()) throw Error("--poses applies to scan files and KITTI folders; RGB-D folders and bags carry their poses");
+  ScanSource src;
+  const bool rgbd = !o.rgbd.empty() || !o.tum.empty();
+  if (rgbd) {
+    const std::string dir = o.rgbd.empty() ? o.tum : o.rgbd;
+    RgbdOptions options;
+    if (!o.intrinsics.empty()) options.intrinsics = o.intrinsics;
+    options.depth_scale = o.depth_scale;
+    options.max_frames = max_scans;
+    RgbdSequence seq = open_rgbd_sequence(dir, options);
+    if (!o.tum.empty() && seq.layout != RgbdLayout::kTum) throw InputError(dir, "", "is not a TUM RGB-D folder (no depth.txt)");
+    src.T_map_scan.emplace();
+    for (const auto& frame : seq.frames) {
+      src.scans.push_back(frame.depth_png);
+      src.T_map_scan->push_back(frame.T_world_cam);
+    }
+    src.poses_name = dir;
+    src.description = std::to_string(seq.frames.size()) + " RGB-D frames of " + dir +
+                      (seq.layout == RgbdLayout::kTum ? " (TUM)" : " (7-Scenes)");
+    if (seq.frames_without_pose > 0) src.description += ", " + std::to_string(seq.frames_without_pose) + " without pose skipped";
+    src.frames = std::make_shared<RgbdFrames>(std::move(seq));
+  } else {
+#ifdef HMAP_HAVE_ROS
+    src = open_bag_source(o, max_scans);
+#else
+    throw Error("this hmap was built without ROS bag support: apt-get install librosbag-dev libsensor-msgs-dev "
+                "libnav-msgs-dev libtf2-msgs-dev, then configure and build again");
+#endif
+  }
+  make_gravity_aligned(src, o, rgbd);
+  return src;
+}
+
 PointCloud ScanSource::read(std::size_t index, CloudReadStats& stats) const {
+  if (frames) return frames->read(index, stats);
   CloudReadStats s;
-  PointCloud cloud = read_cloud(scans.at(index), &s);
+  const auto& path = scans.at(index);
+  std::string ext = path.extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (ext == ".png") throw InputError(path.string(), "", "a depth image needs its camera: use --rgbd DIR or --tum DIR");
+  PointCloud cloud = ext == ".vtk" ? read_vtk(path, &s) : read_cloud(path, &s);
   stats += s;
   return cloud;
 }

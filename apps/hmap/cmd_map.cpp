@@ -12,6 +12,7 @@ namespace {
 
 struct MapOptions {
   ParamOptions params;
+  ScanSourceOptions sensors;
   std::string kitti;
   std::vector<std::string> files;
   std::string poses;
@@ -21,7 +22,8 @@ struct MapOptions {
 
 void run_map(const MapOptions& o) {
   const Params params = o.params.resolve();
-  const ScanSource src = ScanSource::open(o.kitti, o.files, o.poses, o.scans, /*poses_required=*/true);
+  const ScanSource src = ScanSource::open(o.sensors, o.kitti, o.files, o.poses, o.scans, /*poses_required=*/true);
+  if (!src.description.empty()) std::fprintf(stderr, "input: %s\n", src.description.c_str());
   Mapper mapper(params);
   CloudReadStats read_stats;
   ScanStats total;
@@ -65,11 +67,12 @@ void add_map_command(CLI::App& app) {
   auto opts = std::make_shared<MapOptions>();
   auto* cmd = app.add_subcommand("map", "Build an HMAP from scans with known poses");
   cmd->add_option("--kitti", opts->kitti, "KITTI sequence folder (velodyne/*.bin, poses.txt, calib.txt)");
-  cmd->add_option("scans", opts->files, "Scan files (.pcd .ply .bin .xyz .csv .txt), in order");
+  cmd->add_option("scans", opts->files, "Scan files (.pcd .ply .bin .xyz .csv .txt .vtk), in order");
   cmd->add_option("--poses", opts->poses, "Poses T_map_scan, KITTI or TUM format, one per scan");
   cmd->add_option("--scans", opts->scans, "Use only the first N scans");
   cmd->add_option("--out,-o", opts->out, "Output map file (.hmap)")->required();
   opts->params.add_to(*cmd);
+  opts->sensors.add_to(*cmd);
   cmd->callback([opts] { run_map(*opts); });
 }
 

@@ -1,0 +1,47 @@
+#pragma once
+// Gravity alignment of a recording's world frame: the map frame of hmap has z up, but RGB-D
+// trackers (KinectFusion, 7-Scenes, TUM) use the first camera's optical frame, y down. The rotation
+// T_map_world comes from the user (an up axis or a rotation matrix) or from the floor plane.
+
+#include <cstdint>
+#include <span>
+#include <string_view>
+
+#include "hmap/core/types.hpp"
+
+namespace hmap {
+
+/// "x", "+y", "-z" (any case) as a unit vector of the world frame. Throws hmap::Error otherwise.
+[[nodiscard]] Eigen::Vector3d parse_up_axis(std::string_view axis);
+
+/// Nine numbers (row-major, separated by commas or spaces) as the rotation T_map_world; it must be
+/// orthonormal with determinant +1 within 1e-3. Throws hmap::Error otherwise.
+[[nodiscard]] Pose parse_rotation(std::string_view text);
+
+/// The smallest rotation T_map_world taking the world vector `up_world` to +z (yaw is kept as far
+/// as a rotation about the axis orthogonal to both allows). `up_world` need not be unit length.
+[[nodiscard]] Pose gravity_rotation(const Eigen::Vector3d& up_world);
+
+struct FloorParams {
+  double inlier_distance = 0.03;  ///< [m] a point within this of the plane supports it
+  int iterations = 400;           ///< RANSAC samples
+  double max_tilt = 0.6;          ///< [rad] planes tilted more than this from the prior up are not floors (~34°)
+  std::uint32_t seed = 1;         ///< fixed: the same estimate every run
+  double min_inlier_fraction = 0.05;  ///< fewer supporting points than this fraction: no floor found
+};
+
+struct FloorEstimate {
+  bool found = false;
+  Eigen::Vector3d up_world = Eigen::Vector3d::UnitZ();  ///< floor normal pointing up, unit
+  double height = 0.0;            ///< [m] the floor is {p : up_world · p = height}
+  std::size_t inliers = 0;
+  std::size_t points = 0;
+};
+
+/// The dominant floor: the plane with the most points within `inlier_distance` among those whose
+/// normal is within `max_tilt` of `prior_up_world` (for a hand-held or robot camera, the mean of
+/// the cameras' up vectors −y_cam), refined by least squares over its supporting points.
+[[nodiscard]] FloorEstimate estimate_floor(std::span<const Point3f> points_world, const Eigen::Vector3d& prior_up_world,
+                                           const FloorParams& params = {});
+
+}  // namespace hmap

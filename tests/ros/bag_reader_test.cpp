@@ -1,0 +1,239 @@
+// hmap::ros on bags written by ROS's own writer (Debian python3-rosbag, tests/ros/make_test_bags.py)
+// from the real Ouster scans of ../shared/data/balm_os0; PointCloud2 layouts decoded by hand.
+
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <fstream>
+#include <random>
+#include <sstream>
+
+#include "common/test_data.hpp"
+#include "hmap/core/error.hpp"
+#include "hmap/io/kitti.hpp"
+#include "hmap/io/poses.hpp"
+#include "hmap/ros/bag_reader.hpp"
+
+namespace hmap {
+namespace {
+
+namespace fs = std::filesystem;
+constexpr int kScans = 3;
+constexpr std::size_t kStep = 10;
+
+class BagReaderTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    if (!fs::exists(test::data_dir() / "balm_os0")) return;
+    dir_ = test::temp_dir("bags");
+    const fs::path script = fs::path(__FILE__).parent_path() / "make_test_bags.py";
+    // Debian's python (not a virtual env's) has the rosbag module.
+    const std::string cmd = "/usr/bin/python3 " + script.string() + " " + test::data_dir().string() + " " + dir_.string() +
+                            " " + std::to_string(kScans) + " " + std::to_string(kStep) + " 2>&1";
+    made_ = std::system(cmd.c_str()) == 0;
+  }
+  static void TearDownTestSuite() {
+    std::error_code ec;
+    if (!dir_.empty()) fs::remove_all(dir_, ec);
+  }
+  void SetUp() override {
+    HMAP_REQUIRE_DATA("balm_os0");
+    if (!made_) GTEST_SKIP() << "make_test_bags.py failed: is python3-rosbag (and python3-tf2-msgs) installed?";
+  }
+  static PointCloud expected_scan(int k) {
+    CloudReadStats stats;
+    char name[32];
+    std::snprintf(name, sizeof name, "%06d.bin", k);
+    const PointCloud all = read_kitti_bin(test::data_dir() / "balm_os0" / "velodyne" / name, &stats);
+    EXPECT_EQ(stats.non_finite_dropped, 0U);
+    PointCloud some;
+    for (std::size_t i = 0; i < all.size(); i += kStep) some.push_back(all[i]);
+    return some;
+  }
+  static std::string error_of(const std::function<void()>& f) {
+    try {
+      f();
+    } catch (const InputError& e) {
+      return e.what();
+    } catch (const std::exception& e) {
+      return std::string("<not an InputError: ") + e.what() + ">";
+    }
+    return "<no exception>";
+  }
+  static inline fs::path dir_;
+  static inline bool made_ = false;
+};
+
+/// Translation error [m], plus the rotation-matrix error scaled down: poses.txt's 9-digit matrices
+/// are orthonormal only to ~1e-3 and the bag writer's quaternion comes from the raw matrix, while
+/// read_poses orthonormalizes it.
+double max_pose_error(const Pose& a, const Pose& b) {
+  return std::max((a.translation() - b.translation()).cwiseAbs().maxCoeff(),
+                  1e-3 * (a.linear() - b.linear()).cwiseAbs().maxCoeff());
+}
+
+TEST_F(BagReaderTest, InfoListsTopicsAndCompression) {
+  for (const auto& [name, compression] : {std::pair{"tf.bag", "none"}, {"tf_lz4.bag", "lz4"}, {"tf_bz2.bag", "bz2"}}) {
+    const ros::BagInfo info = ros::read_bag_info(dir_ / name);
+    EXPECT_EQ(info.version, 200U);
+    EXPECT_EQ(info.compression, compression) << name;
+    EXPECT_EQ(info.messages, static_cast<std::size_t>(kScans * 3 + 1));
+    ASSERT_EQ(info.topics.size(), 3U);
+    EXPECT_EQ(info.topics[0].name, "/os_cloud");
+    EXPECT_EQ(info.topics[0].type, "sensor_msgs/PointCloud2");
+    EXPECT_EQ(info.topics[0].messages, static_cast<std::size_t>(kScans));
+    EXPECT_EQ(info.topics[1].name, "/tf");
+  }
+}
+
+TEST_F(BagReaderTest, TfChainInterpolatedAndEveryCompression) {
+  const PoseList truth = read_poses(test::data_dir() / "balm_os0" / "poses.txt");
+  Pose T_map_odom = Pose::Identity();
+  T_map_odom.translation() = Eigen::Vector3d(1, 2, 0);
+  for (const char* name : {"tf.bag", "tf_lz4.bag", "tf_bz2.bag"}) {
+    ros::BagCloudOptions options;
+    options.cloud_topic = "/os_cloud";
+    const ros::BagCloudReader reader(dir_ / name, options);
+    ASSERT_EQ(reader.frames().size(), static_cast<std::size_t>(kScans));
+    for (int k = 0; k < kScans; ++k) {
+      const auto& frame = reader.frames()[static_cast<std::size_t>(k)];
+      EXPECT_EQ(frame.frame_id, "os_sensor");
+      // /tf samples at t -+ 0.1 s straddle the true pose: interpolation gives it back.
+      EXPECT_LT(max_pose_error(frame.T_map_cloud, T_map_odom * truth[static_cast<std::size_t>(k)]), 1e-5) << name << " " << k;
+      CloudReadStats stats;
+      const PointCloud points = reader.read(static_cast<std::size_t>(k), &stats);
+      EXPECT_EQ(points, expected_scan(k)) << name;
+      EXPECT_EQ(stats.non_finite_dropped, 0U);
+    }
+  }
+  // --tf-frames odom: the chain stops at odom.
+  ros::BagCloudOptions options;
+  options.cloud_topic = "/os_cloud";
+  options.map_frame = "odom";
+  const ros::BagCloudReader reader(dir_ / "tf.bag", options);
+  EXPECT_LT(max_pose_error(reader.frames()[1].T_map_cloud, truth[1]), 1e-5);
+  options.map_frame = "nowhere";
+  EXPECT_NE(error_of([&] { ros::BagCloudReader bad(dir_ / "tf.bag", options); }).find("not connected"), std::string::npos);
+}
+
+TEST_F(BagReaderTest, OdometryTopicGivesPoses) {
+  const PoseList truth = read_poses(test::data_dir() / "balm_os0" / "poses.txt");
+  ros::BagCloudOptions options;
+  options.cloud_topic = "/os_cloud";
+  options.pose_topic = "/odom";
+  const ros::BagCloudReader reader(dir_ / "odom.bag", options);
+  ASSERT_EQ(reader.frames().size(), static_cast<std::size_t>(kScans));
+  for (int k = 0; k < kScans; ++k) {
+    EXPECT_LT(max_pose_error(reader.frames()[static_cast<std::size_t>(k)].T_map_cloud, truth[static_cast<std::size_t>(k)]), 1e-6);
+  }
+  EXPECT_EQ(reader.read(2), expected_scan(2));
+}
+
+TEST_F(BagReaderTest, BigEndianOddLayoutAndOrganizedNanCloud) {
+  ros::BagCloudOptions options;
+  options.cloud_topic = "/cloud";
+  options.pose_topic = "/odom";
+  const ros::BagCloudReader reader(dir_ / "layout.bag", options);
+  ASSERT_EQ(reader.frames().size(), 2U);
+  EXPECT_EQ(reader.read(0), expected_scan(0));  // big-endian, z first, x as float64
+  const PointCloud scan1 = expected_scan(1);
+  CloudReadStats stats;
+  const PointCloud organized = reader.read(1, &stats);
+  const std::size_t used = scan1.size() / 4 * 4;  // 4 rows of equal width
+  EXPECT_EQ(stats.points_read, used);
+  EXPECT_EQ(stats.non_finite_dropped, (used + 6) / 7);
+  PointCloud expected;
+  for (std::size_t i = 0; i < used; ++i) {
+    if (i % 7 != 0) expected.push_back(scan1[i]);
+  }
+  EXPECT_EQ(organized, expected);
+}
+
+TEST_F(BagReaderTest, CloudWithoutPoseIsOneLineNamingTopicAndStamp) {
+  ros::BagCloudOptions options;
+  options.cloud_topic = "/os_cloud";
+  options.pose_topic = "/odom";
+  const std::string e = error_of([&] { ros::BagCloudReader r(dir_ / "nopose.bag", options); });
+  EXPECT_NE(e.find("nopose.bag: /os_cloud at stamp 1630577758.569490: no pose"), std::string::npos) << e;
+  EXPECT_EQ(e.find('\n'), std::string::npos);
+  options.cloud_topic = "/nothing";
+  EXPECT_NE(error_of([&] { ros::BagCloudReader r(dir_ / "odom.bag", options); }).find("topic /nothing has no messages"),
+            std::string::npos);
+  options.cloud_topic = "/odom";
+  EXPECT_NE(error_of([&] { ros::BagCloudReader r(dir_ / "odom.bag", options); }).find("not sensor_msgs/PointCloud2"),
+            std::string::npos);
+}
+
+TEST_F(BagReaderTest, DamagedBagsGiveInputErrors) {
+  std::ifstream in(dir_ / "tiny.bag", std::ios::binary);
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  const std::string bytes = buffer.str();
+  const fs::path path = dir_ / "damaged.bag";
+  const auto try_read = [&](const std::string& content, const std::string& what) {
+    std::ofstream(path, std::ios::binary).write(content.data(), static_cast<std::streamsize>(content.size()));
+    try {
+      ros::BagCloudOptions options;
+      options.cloud_topic = "/os_cloud";
+      options.pose_topic = "/odom";
+      const ros::BagCloudReader reader(path, options);
+      for (std::size_t k = 0; k < reader.frames().size(); ++k) (void)reader.read(k);
+      (void)ros::read_bag_info(path);
+    } catch (const InputError&) {
+    } catch (const std::exception& e) {
+      ADD_FAILURE() << what << ": " << e.what();
+    }
+  };
+  // Every prefix (every 7th length: the bag is mostly message definitions) and seeded damage.
+  for (std::size_t length = 0; length < bytes.size(); length += 7) try_read(bytes.substr(0, length), "prefix " + std::to_string(length));
+  std::mt19937 rng(99);
+  std::uniform_int_distribution<std::size_t> position(0, bytes.size() - 1);
+  std::uniform_int_distribution<int> byte(0, 255);
+  for (int trial = 0; trial < 200; ++trial) {
+    std::string damaged = bytes;
+    for (int k = 0; k < 1 + trial % 4; ++k) damaged[position(rng)] = static_cast<char>(byte(rng));
+    try_read(damaged, "damage trial " + std::to_string(trial));
+  }
+}
+
+TEST(PointCloud2Decode, LayoutChecks) {
+  std::vector<std::uint8_t> data(2 * 12, 0);
+  const float values[6] = {1, 2, 3, 4, 5, 6};
+  std::memcpy(data.data(), values, sizeof values);
+  ros::PointCloud2Data cloud;
+  cloud.width = 2;
+  cloud.fields = {{"x", 0, 7, 1}, {"y", 4, 7, 1}, {"z", 8, 7, 1}};
+  cloud.point_step = 12;
+  cloud.row_step = 24;
+  cloud.data = data;
+  PointCloud points;
+  ros::decode_pointcloud2(cloud, points, nullptr, "b.bag", "/c at stamp 1");
+  ASSERT_EQ(points.size(), 2U);
+  EXPECT_EQ(points[1], Point3f(4, 5, 6));
+  const auto fails = [&](ros::PointCloud2Data c, const std::string& part) {
+    try {
+      ros::decode_pointcloud2(c, points, nullptr, "b.bag", "/c at stamp 1");
+      ADD_FAILURE() << "no error for " << part;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("b.bag: /c at stamp 1: " + part), std::string::npos) << e.what();
+    }
+  };
+  auto c = cloud;
+  c.fields.pop_back();
+  fails(c, "the cloud has no z field");
+  c = cloud;
+  c.fields[1].offset = 10;
+  fails(c, "field y at offset 10 lies outside");
+  c = cloud;
+  c.row_step = 20;
+  fails(c, "row_step 20 is less than");
+  c = cloud;
+  c.height = 1000000;  // an absurd row count is refused, not allocated
+  fails(c, "data holds 24 bytes");
+  c = cloud;
+  c.fields[0].datatype = 9;
+  fails(c, "field x has unknown datatype 9");
+}
+
+}  // namespace
+}  // namespace hmap
