@@ -5,6 +5,7 @@
 
 #include <chrono>
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -28,6 +29,33 @@ struct ParamOptions {
   [[nodiscard]] Params resolve() const;
 };
 
+/// The sensor inputs beyond scan files, shared by every command that reads scans: RGB-D folders
+/// (7-Scenes, TUM), ROS bags, and the rotation that makes the data's world frame gravity-aligned.
+/// A command adopts them with a member `ScanSourceOptions sensors;`, `sensors.add_to(*cmd)`, and
+/// `ScanSource::open(sensors, kitti, files, poses, max_scans, poses_required)`.
+struct ScanSourceOptions {
+  std::string rgbd;                   ///< 7-Scenes or TUM RGB-D folder (layout told by its files)
+  std::string tum;                    ///< TUM RGB-D folder (must hold depth.txt)
+  std::string intrinsics;             ///< fx fy cx cy or a 3x3 matrix, overriding the folder's
+  std::optional<double> depth_scale;  ///< [m per depth unit]
+  std::string up;                     ///< up axis of the world frame (x, -y, ...) or "floor"
+  std::string rotation;               ///< T_map_world rotation, 9 numbers row-major
+  std::string bag;                    ///< ROS 1 bag
+  std::string cloud_topic;            ///< sensor_msgs/PointCloud2 topic of the bag
+  std::string pose_topic;             ///< nav_msgs/Odometry (or PoseStamped) topic of the bag
+  std::vector<std::string> tf_frames; ///< MAP [SENSOR] frames of /tf
+
+  void add_to(CLI::App& app);
+  [[nodiscard]] bool any_input() const { return !rgbd.empty() || !tum.empty() || !bag.empty(); }
+};
+
+/// Reads the frames of a source that is not a list of files (an RGB-D folder, a bag).
+class FrameReader {
+ public:
+  virtual ~FrameReader() = default;
+  [[nodiscard]] virtual PointCloud read(std::size_t index, CloudReadStats& stats) const = 0;
+};
+
 /// The scans of a run and their poses: a KITTI folder or a list of files.
 struct ScanSource {
   std::vector<std::filesystem::path> scans;
@@ -38,8 +66,22 @@ struct ScanSource {
   /// `max_scans` scans (0 = all). Throws InputError for a pose count that does not match.
   static ScanSource open(const std::string& kitti_dir, const std::vector<std::string>& files,
                          const std::string& poses_file, std::size_t max_scans, bool poses_required);
+  /// Also RGB-D folders and bags (one of the inputs; `sensors.up`/`rotation` apply to any of them):
+  /// `scans` then names the depth images or "topic@stamp", T_map_scan is always set, and frames
+  /// are read one at a time by read().
+  static ScanSource open(const ScanSourceOptions& sensors, const std::string& kitti_dir,
+                         const std::vector<std::string>& files, const std::string& poses_file,
+                         std::size_t max_scans, bool poses_required);
   [[nodiscard]] PointCloud read(std::size_t index, CloudReadStats& stats) const;
+
+  std::shared_ptr<const FrameReader> frames;  ///< set for RGB-D folders and bags
+  std::string description;                    ///< e.g. "50 RGB-D frames of DIR (7-Scenes)"
 };
+
+#ifdef HMAP_HAVE_ROS
+/// A bag's clouds as a ScanSource (cmd_bag.cpp).
+[[nodiscard]] ScanSource open_bag_source(const ScanSourceOptions& sensors, std::size_t max_scans);
+#endif
 
 /// A one-line progress bar on stderr when it is a terminal; silent otherwise.
 class Progress {
@@ -71,5 +113,10 @@ void add_render_command(CLI::App& app);
 void add_eval_command(CLI::App& app);
 void add_simulate_command(CLI::App& app);
 void add_demo_command(CLI::App& app);
+void add_compare_command(CLI::App& app);
+void add_bag_info_command(CLI::App& app);  // only with HMAP_HAVE_ROS
+void add_slam_command(CLI::App& app);  // apps/hmap/cmd_slam.cpp, when HMAP_HAVE_SLAM
+void add_pvox_command(CLI::App& app);        // apps/hmap/cmd_pvox.cpp, when HMAP_HAVE_PVOX
+void add_experiment_command(CLI::App& app);  // apps/hmap/cmd_experiment.cpp, when HMAP_HAVE_PVOX
 
 }  // namespace hmap::cli

@@ -21,6 +21,17 @@ int main(int argc, char** argv) {
   hmap::cli::add_eval_command(app);
   hmap::cli::add_simulate_command(app);
   hmap::cli::add_demo_command(app);
+  hmap::cli::add_compare_command(app);
+#ifdef HMAP_HAVE_PVOX
+  hmap::cli::add_pvox_command(app);
+  hmap::cli::add_experiment_command(app);
+#endif
+#ifdef HMAP_HAVE_SLAM
+  hmap::cli::add_slam_command(app);
+#endif
+#ifdef HMAP_HAVE_ROS
+  hmap::cli::add_bag_info_command(app);
+#endif
   auto* params_cmd = app.add_subcommand("params", "Print every parameter of a preset with its unit");
   auto preset = std::make_shared<std::string>("outdoor");
   params_cmd->add_option("--preset", *preset, "indoor or outdoor")->capture_default_str();

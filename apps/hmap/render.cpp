@@ -1,9 +1,12 @@
 #include "render.hpp"
 
 #include <algorithm>
+#include <array>
 #include <limits>
 
 #include "hmap/core/error.hpp"
+#include "hmap/ground/ground_patches.hpp"
+#include "hmap/occupancy/occupancy_grid.hpp"
 
 namespace hmap::cli {
 
@@ -168,6 +171,231 @@ void draw_path(RgbImage& image, const TopViewport& vp, const PoseList& poses, st
       for (int dx = -3; dx <= 3; ++dx)
         if (dx * dx + dy * dy <= 9 && x + dx >= 0 && y + dy >= 0 && x + dx < image.width && y + dy < image.height)
           image.set(x + dx, y + dy, r, g, b);
+  }
+}
+
+namespace {
+
+/// 5x7 glyphs, one byte per row, bit 4 = leftmost pixel.
+struct Glyph {
+  char c;
+  std::array<std::uint8_t, 7> rows;
+};
+constexpr Glyph kFont[] = {
+    {'%', {0x18, 0x19, 0x02, 0x04, 0x08, 0x13, 0x03}},
+    {'(', {0x02, 0x04, 0x08, 0x08, 0x08, 0x04, 0x02}},
+    {')', {0x08, 0x04, 0x02, 0x02, 0x02, 0x04, 0x08}},
+    {'+', {0x00, 0x04, 0x04, 0x1F, 0x04, 0x04, 0x00}},
+    {',', {0x00, 0x00, 0x00, 0x00, 0x0C, 0x04, 0x08}},
+    {'-', {0x00, 0x00, 0x00, 0x1F, 0x00, 0x00, 0x00}},
+    {'.', {0x00, 0x00, 0x00, 0x00, 0x00, 0x0C, 0x0C}},
+    {'/', {0x00, 0x01, 0x02, 0x04, 0x08, 0x10, 0x00}},
+    {'0', {0x0E, 0x11, 0x13, 0x15, 0x19, 0x11, 0x0E}},
+    {'1', {0x04, 0x0C, 0x04, 0x04, 0x04, 0x04, 0x0E}},
+    {'2', {0x0E, 0x11, 0x01, 0x02, 0x04, 0x08, 0x1F}},
+    {'3', {0x1F, 0x02, 0x04, 0x02, 0x01, 0x11, 0x0E}},
+    {'4', {0x02, 0x06, 0x0A, 0x12, 0x1F, 0x02, 0x02}},
+    {'5', {0x1F, 0x10, 0x1E, 0x01, 0x01, 0x11, 0x0E}},
+    {'6', {0x06, 0x08, 0x10, 0x1E, 0x11, 0x11, 0x0E}},
+    {'7', {0x1F, 0x01, 0x02, 0x04, 0x08, 0x08, 0x08}},
+    {'8', {0x0E, 0x11, 0x11, 0x0E, 0x11, 0x11, 0x0E}},
+    {'9', {0x0E, 0x11, 0x11, 0x0F, 0x01, 0x02, 0x0C}},
+    {':', {0x00, 0x0C, 0x0C, 0x00, 0x0C, 0x0C, 0x00}},
+    {'=', {0x00, 0x00, 0x1F, 0x00, 0x1F, 0x00, 0x00}},
+    {'A', {0x0E, 0x11, 0x11, 0x1F, 0x11, 0x11, 0x11}},
+    {'B', {0x1E, 0x11, 0x11, 0x1E, 0x11, 0x11, 0x1E}},
+    {'C', {0x0E, 0x11, 0x10, 0x10, 0x10, 0x11, 0x0E}},
+    {'D', {0x1E, 0x11, 0x11, 0x11, 0x11, 0x11, 0x1E}},
+    {'E', {0x1F, 0x10, 0x10, 0x1E, 0x10, 0x10, 0x1F}},
+    {'F', {0x1F, 0x10, 0x10, 0x1E, 0x10, 0x10, 0x10}},
+    {'G', {0x0E, 0x11, 0x10, 0x17, 0x11, 0x11, 0x0F}},
+    {'H', {0x11, 0x11, 0x11, 0x1F, 0x11, 0x11, 0x11}},
+    {'I', {0x0E, 0x04, 0x04, 0x04, 0x04, 0x04, 0x0E}},
+    {'J', {0x07, 0x02, 0x02, 0x02, 0x02, 0x12, 0x0C}},
+    {'K', {0x11, 0x12, 0x14, 0x18, 0x14, 0x12, 0x11}},
+    {'L', {0x10, 0x10, 0x10, 0x10, 0x10, 0x10, 0x1F}},
+    {'M', {0x11, 0x1B, 0x15, 0x15, 0x11, 0x11, 0x11}},
+    {'N', {0x11, 0x11, 0x19, 0x15, 0x13, 0x11, 0x11}},
+    {'O', {0x0E, 0x11, 0x11, 0x11, 0x11, 0x11, 0x0E}},
+    {'P', {0x1E, 0x11, 0x11, 0x1E, 0x10, 0x10, 0x10}},
+    {'Q', {0x0E, 0x11, 0x11, 0x11, 0x15, 0x12, 0x0D}},
+    {'R', {0x1E, 0x11, 0x11, 0x1E, 0x14, 0x12, 0x11}},
+    {'S', {0x0F, 0x10, 0x10, 0x0E, 0x01, 0x01, 0x1E}},
+    {'T', {0x1F, 0x04, 0x04, 0x04, 0x04, 0x04, 0x04}},
+    {'U', {0x11, 0x11, 0x11, 0x11, 0x11, 0x11, 0x0E}},
+    {'V', {0x11, 0x11, 0x11, 0x11, 0x11, 0x0A, 0x04}},
+    {'W', {0x11, 0x11, 0x11, 0x15, 0x15, 0x15, 0x0A}},
+    {'X', {0x11, 0x11, 0x0A, 0x04, 0x0A, 0x11, 0x11}},
+    {'Y', {0x11, 0x11, 0x0A, 0x04, 0x04, 0x04, 0x04}},
+    {'Z', {0x1F, 0x01, 0x02, 0x04, 0x08, 0x10, 0x1F}},
+    {'_', {0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x1F}},
+};
+
+const Glyph* glyph(char c) {
+  if (c >= 'a' && c <= 'z') c = static_cast<char>(c - 'a' + 'A');
+  for (const Glyph& g : kFont) {
+    if (g.c == c) return &g;
+  }
+  return nullptr;
+}
+
+void plot_clipped(RgbImage& image, int x, int y, std::uint8_t r, std::uint8_t g, std::uint8_t b) {
+  if (x >= 0 && y >= 0 && x < image.width && y < image.height) image.set(x, y, r, g, b);
+}
+
+void draw_line(RgbImage& image, double xa, double ya, double xb, double yb, std::uint8_t r, std::uint8_t g,
+               std::uint8_t b) {
+  const int steps = std::max(1, static_cast<int>(std::ceil(std::max(std::abs(xb - xa), std::abs(yb - ya)))));
+  for (int s = 0; s <= steps; ++s) {
+    const double t = static_cast<double>(s) / steps;
+    plot_clipped(image, static_cast<int>(std::floor(xa + t * (xb - xa))), static_cast<int>(std::floor(ya + t * (yb - ya))), r, g, b);
+  }
+}
+
+}  // namespace
+
+void draw_text(RgbImage& image, int x, int y, std::string_view text, int scale, std::uint8_t r, std::uint8_t g,
+               std::uint8_t b) {
+  for (const char c : text) {
+    if (const Glyph* gl = glyph(c)) {
+      for (int row = 0; row < 7; ++row) {
+        for (int col = 0; col < 5; ++col) {
+          if (((gl->rows[static_cast<std::size_t>(row)] >> (4 - col)) & 1U) == 0) continue;
+          for (int dy = 0; dy < scale; ++dy)
+            for (int dx = 0; dx < scale; ++dx) plot_clipped(image, x + col * scale + dx, y + row * scale + dy, r, g, b);
+        }
+      }
+    }
+    x += 6 * scale;
+  }
+}
+
+RgbImage side_by_side(const std::vector<std::pair<std::string, RgbImage>>& panels) {
+  constexpr int kGap = 12;
+  constexpr int kTitle = 30;
+  int width = kGap;
+  int height = 0;
+  for (const auto& [title, img] : panels) {
+    width += img.width + kGap;
+    height = std::max(height, img.height);
+  }
+  RgbImage out(width, height + kTitle + kGap, 255);
+  int x = kGap;
+  for (const auto& [title, img] : panels) {
+    draw_text(out, x, 8, title, 2, 0, 0, 0);
+    for (int y = 0; y < img.height; ++y) {
+      for (int xx = 0; xx < img.width; ++xx) {
+        const std::size_t k = 3 * (static_cast<std::size_t>(y) * static_cast<std::size_t>(img.width) + static_cast<std::size_t>(xx));
+        out.set(x + xx, kTitle + y, img.rgb[k], img.rgb[k + 1], img.rgb[k + 2]);
+      }
+    }
+    x += img.width + kGap;
+  }
+  return out;
+}
+
+TopViewport viewport_over(double x0, double y0, double x1, double y1, double cell, int max_pixels) {
+  TopViewport vp;
+  vp.m_per_px = std::max(cell, std::max(x1 - x0, y1 - y0) / std::max(max_pixels, 1));
+  vp.x0 = x0;
+  vp.y1 = y1;
+  vp.width = std::max(1, static_cast<int>(std::ceil((x1 - x0) / vp.m_per_px)));
+  vp.height = std::max(1, static_cast<int>(std::ceil((y1 - y0) / vp.m_per_px)));
+  return vp;
+}
+
+RgbImage render_top_in(const HMap& map, const HeightRange& range_in, const TopViewport& vp) {
+  const HeightRange range = resolve_range(map, range_in);
+  const auto n = static_cast<std::size_t>(vp.width) * static_cast<std::size_t>(vp.height);
+  std::vector<float> top(n, -std::numeric_limits<float>::infinity());
+  std::vector<std::uint8_t> layers(n, 0);
+  map.for_each_column([&](const CellKey& key, const Column& c) {
+    if (c.empty()) return;
+    const Eigen::Vector2d xy = map.cell_center(key);
+    const auto x = static_cast<int>(std::floor(vp.px(xy.x())));
+    const auto y = static_cast<int>(std::floor(vp.py(xy.y())));
+    if (x < 0 || y < 0 || x >= vp.width || y >= vp.height) return;
+    const std::size_t k = static_cast<std::size_t>(y) * static_cast<std::size_t>(vp.width) + static_cast<std::size_t>(x);
+    top[k] = std::max(top[k], c[c.size() - 1].z_max);
+    layers[k] = static_cast<std::uint8_t>(std::max<std::size_t>(layers[k], std::min<std::size_t>(c.size(), 255)));
+  });
+  RgbImage img(vp.width, vp.height, 0);
+  for (std::size_t k = 0; k < n; ++k) {
+    if (!std::isfinite(top[k])) continue;  // unknown: black
+    std::uint8_t r = 0, g = 0, b = 0;
+    height_colour((top[k] - range.z_low) / (range.z_high - range.z_low), r, g, b);
+    if (layers[k] > 1) {  // overhangs (several HVoxels in the column) drawn lighter
+      r = static_cast<std::uint8_t>((r + 255) / 2);
+      g = static_cast<std::uint8_t>((g + 255) / 2);
+      b = static_cast<std::uint8_t>((b + 255) / 2);
+    }
+    img.rgb[3 * k] = r;
+    img.rgb[3 * k + 1] = g;
+    img.rgb[3 * k + 2] = b;
+  }
+  return img;
+}
+
+RgbImage render_occupancy(const OccupancyGrid& grid, const TopViewport& vp) {
+  RgbImage img(vp.width, vp.height, 205);
+  const double cell = grid.cell_size();
+  // Cells larger than a pixel cover several; smaller ones share one, the most occupied winning.
+  const int span = std::max(1, static_cast<int>(std::ceil(cell / vp.m_per_px)));
+  std::vector<float> best(static_cast<std::size_t>(vp.width) * static_cast<std::size_t>(vp.height), -1.0F);
+  grid.for_each_cell([&](const CellKey& key, float l) {
+    const auto p = static_cast<float>(probability(l));
+    const auto x = static_cast<int>(std::floor(vp.px(key.i * cell)));
+    const auto y = static_cast<int>(std::floor(vp.py((key.j + 1) * cell)));
+    for (int dy = 0; dy < span; ++dy) {
+      for (int dx = 0; dx < span; ++dx) {
+        const int xx = x + dx;
+        const int yy = y + dy;
+        if (xx < 0 || yy < 0 || xx >= vp.width || yy >= vp.height) continue;
+        float& slot = best[static_cast<std::size_t>(yy) * static_cast<std::size_t>(vp.width) + static_cast<std::size_t>(xx)];
+        if (p <= slot) continue;
+        slot = p;
+        const auto grey = static_cast<std::uint8_t>(std::lround(255.0 * (1.0 - p)));
+        img.set(xx, yy, grey, grey, grey);
+      }
+    }
+  });
+  return img;
+}
+
+RgbImage render_points_top(const PointCloud& points, const HeightRange& range, const TopViewport& vp) {
+  const auto n = static_cast<std::size_t>(vp.width) * static_cast<std::size_t>(vp.height);
+  std::vector<float> top(n, -std::numeric_limits<float>::infinity());
+  for (const Point3f& p : points) {
+    const auto x = static_cast<int>(std::floor(vp.px(p.x())));
+    const auto y = static_cast<int>(std::floor(vp.py(p.y())));
+    if (x < 0 || y < 0 || x >= vp.width || y >= vp.height) continue;
+    float& t = top[static_cast<std::size_t>(y) * static_cast<std::size_t>(vp.width) + static_cast<std::size_t>(x)];
+    t = std::max(t, p.z());
+  }
+  RgbImage img(vp.width, vp.height, 0);
+  for (std::size_t k = 0; k < n; ++k) {
+    if (!std::isfinite(top[k])) continue;
+    height_colour((top[k] - range.z_low) / (range.z_high - range.z_low), img.rgb[3 * k], img.rgb[3 * k + 1], img.rgb[3 * k + 2]);
+  }
+  return img;
+}
+
+void draw_ground_patches(RgbImage& image, const TopViewport& vp, const std::vector<GroundPatch>& patches,
+                         std::uint8_t r, std::uint8_t g, std::uint8_t b) {
+  for (const GroundPatch& p : patches) {
+    const double x0 = vp.px(p.center.x() - p.half_size);
+    const double x1 = vp.px(p.center.x() + p.half_size);
+    const double y0 = vp.py(p.center.y() + p.half_size);
+    const double y1 = vp.py(p.center.y() - p.half_size);
+    draw_line(image, x0, y0, x1, y0, r, g, b);
+    draw_line(image, x1, y0, x1, y1, r, g, b);
+    draw_line(image, x1, y1, x0, y1, r, g, b);
+    draw_line(image, x0, y1, x0, y0, r, g, b);
+    if (p.parent >= 0 && static_cast<std::size_t>(p.parent) < patches.size()) {
+      const GroundPatch& q = patches[static_cast<std::size_t>(p.parent)];
+      draw_line(image, vp.px(p.center.x()), vp.py(p.center.y()), vp.px(q.center.x()), vp.py(q.center.y()),
+                255, 255, 255);
+    }
   }
 }
 

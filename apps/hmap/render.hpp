@@ -2,6 +2,9 @@
 // Pictures of maps for people: top-down and oblique views, trajectories drawn over them.
 
 #include <cmath>
+#include <string>
+#include <string_view>
+#include <utility>
 #include <vector>
 
 #include "hmap/io/png.hpp"
@@ -45,5 +48,40 @@ void draw_path(RgbImage& image, const TopViewport& viewport, const PoseList& pos
 
 /// Blue → cyan → green → yellow → red for t in [0, 1].
 void height_colour(double t, std::uint8_t& r, std::uint8_t& g, std::uint8_t& b);
+
+}  // namespace hmap::cli
+
+namespace hmap {
+class OccupancyGrid;
+struct GroundPatch;
+}  // namespace hmap
+
+namespace hmap::cli {
+
+/// The viewport over [x0, x1] × [y0, y1] [m]: one pixel per `cell`, or coarser so that neither
+/// side exceeds `max_pixels`. Pictures drawn in one viewport line up pixel for pixel.
+[[nodiscard]] TopViewport viewport_over(double x0, double y0, double x1, double y1, double cell, int max_pixels);
+
+/// Top-down as render_top, in a given viewport.
+[[nodiscard]] RgbImage render_top_in(const HMap& map, const HeightRange& range, const TopViewport& viewport);
+
+/// The 2D occupancy grid as map_server shows a map: free white, occupied black, shades of grey
+/// in between by probability, never-observed cells grey (205).
+[[nodiscard]] RgbImage render_occupancy(const OccupancyGrid& grid, const TopViewport& viewport);
+
+/// Points seen from above, coloured by the highest point per pixel (the raw cloud panel).
+[[nodiscard]] RgbImage render_points_top(const PointCloud& points_map, const HeightRange& range,
+                                         const TopViewport& viewport);
+
+/// Alg. 4's tree over a top view: each patch's square outlined, each edge to its parent drawn.
+void draw_ground_patches(RgbImage& image, const TopViewport& viewport, const std::vector<GroundPatch>& patches,
+                         std::uint8_t r, std::uint8_t g, std::uint8_t b);
+
+/// Text in a 5x7 pixel font (upper case, digits, . , : - + / ( ) % = _), `scale` pixels per font pixel.
+void draw_text(RgbImage& image, int x, int y, std::string_view text, int scale, std::uint8_t r, std::uint8_t g,
+               std::uint8_t b);
+
+/// Panels side by side on white, each with its title above it.
+[[nodiscard]] RgbImage side_by_side(const std::vector<std::pair<std::string, RgbImage>>& panels);
 
 }  // namespace hmap::cli

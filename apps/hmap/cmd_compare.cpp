@@ -1,0 +1,381 @@
+// hmap compare: the paper's comparison, measured. The hybrid HMAP, the 2.5D pipeline of [9] and
+// an OctoMap built from the same scans; side-by-side pictures in the manner of the paper's Fig. 5/6
+// and, when the truth is known (a simulated sequence), 3D and 2D accuracy tables.
+
+#include <octomap/OcTree.h>
+
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "cli_common.hpp"
+#include "hmap/baseline/elevation_mapper.hpp"
+#include "hmap/baseline/elevation_occupancy.hpp"
+#include "hmap/core/error.hpp"
+#include "hmap/eval/map_metrics.hpp"
+#include "hmap/io/atomic_file.hpp"
+#include "hmap/io/cloud_reader.hpp"
+#include "hmap/io/hmap_file.hpp"
+#include "hmap/io/png.hpp"
+#include "hmap/occupancy/hybrid_mapper.hpp"
+#include "render.hpp"
+
+namespace hmap::cli {
+
+namespace {
+
+struct CompareOptions {
+  ParamOptions params;
+  ScanSourceOptions sensors;
+  std::string kitti;
+  std::vector<std::string> files;
+  std::string poses;
+  std::string truth;
+  std::size_t scans = 0;
+  std::optional<double> robot_height;
+  std::optional<double> elevation_ceiling;
+  int max_pixels = 900;
+  std::string out;
+};
+
+/// One system's numbers.
+struct SystemResult {
+  std::string name;
+  double ms_per_scan = 0.0;
+  std::size_t memory_bytes = 0;
+  std::optional<MapMetrics> metrics;
+};
+
+/// Occupied OctoMap leaves as HVoxels, so that evaluate_map scores all three maps alike: per
+/// column, vertically adjacent leaves unite into one HVoxel.
+HMap octomap_as_hmap(const octomap::OcTree& tree, const Params& params) {
+  HMap map(params);
+  const double cell = params.map.cell_size;
+  std::map<CellKey, std::vector<std::pair<float, float>>, bool (*)(const CellKey&, const CellKey&)> columns(
+      [](const CellKey& a, const CellKey& b) { return a.i != b.i ? a.i < b.i : a.j < b.j; });
+  for (auto it = tree.begin_leafs(); it != tree.end_leafs(); ++it) {
+    if (!tree.isNodeOccupied(*it)) continue;
+    const double size = it.getSize();
+    const double half = size / 2.0;
+    const int n = std::max(1, static_cast<int>(std::lround(size / cell)));
+    for (int a = 0; a < n; ++a) {
+      for (int b = 0; b < n; ++b) {
+        const double x = it.getX() - half + (a + 0.5) * cell;
+        const double y = it.getY() - half + (b + 0.5) * cell;
+        const auto key = map.key_of(x, y);
+        if (!key) continue;
+        columns[*key].emplace_back(static_cast<float>(it.getZ() - half), static_cast<float>(it.getZ() + half));
+      }
+    }
+  }
+  for (auto& [key, spans] : columns) {
+    std::sort(spans.begin(), spans.end());
+    Column& column = map.column_for_update(key);
+    std::pair<float, float> run = spans.front();
+    const auto flush = [&] {
+      const float count = std::round((run.second - run.first) / static_cast<float>(cell));
+      column.push_back({run.first, run.second, count, 1.0F});
+    };
+    for (std::size_t k = 1; k < spans.size(); ++k) {
+      if (spans[k].first <= run.second + 1e-4F) {
+        run.second = std::max(run.second, spans[k].second);
+      } else {
+        flush();
+        run = spans[k];
+      }
+    }
+    flush();
+  }
+  return map;
+}
+
+/// The 2.5D map drawn as solid columns from the lowest point seen to the elevation (what a
+/// 2.5D map asserts: everything below the surface is filled).
+HMap elevation_display(const ElevationMap& elevation) {
+  HMap map(elevation.params());
+  elevation.for_each_cell([&](const CellKey& key, const ElevationCell& c) {
+    if (std::isnan(c.elevation)) return;
+    const float low = std::isnan(c.lowest) ? c.elevation : std::min(c.lowest, c.elevation);
+    map.column_for_update(key).push_back({low, c.elevation, 1.0F, 1.0F});
+  });
+  return map;
+}
+
+/// True traversability per cell from the true surface points: the ground is the lowest point in
+/// the 5x5 cells around (so a box top is not taken for ground), and a cell is blocked when a
+/// point rises more than `step` [m] and at most `robot_height` [m] above that ground. Cells with
+/// truth points above the robot only (over free ground) are "overhang" cells: the paper's case.
+struct TrueCell {
+  bool blocked = false;
+  bool overhang = false;
+};
+
+std::unordered_map<CellKey, TrueCell, CellKeyHash> true_traversability(const PointCloud& truth, double cell,
+                                                                      double step, double robot_height) {
+  std::unordered_map<CellKey, float, CellKeyHash> lowest;
+  std::unordered_map<CellKey, std::vector<float>, CellKeyHash> heights;
+  for (const Point3f& p : truth) {
+    const CellKey key{static_cast<std::int32_t>(std::floor(p.x() / cell)), static_cast<std::int32_t>(std::floor(p.y() / cell))};
+    auto [it, fresh] = lowest.try_emplace(key, p.z());
+    if (!fresh) it->second = std::min(it->second, p.z());
+    heights[key].push_back(p.z());
+  }
+  std::unordered_map<CellKey, TrueCell, CellKeyHash> out;
+  for (const auto& [key, zs] : heights) {
+    float ground = std::numeric_limits<float>::infinity();
+    for (int di = -2; di <= 2; ++di) {
+      for (int dj = -2; dj <= 2; ++dj) {
+        if (const auto it = lowest.find({key.i + di, key.j + dj}); it != lowest.end()) ground = std::min(ground, it->second);
+      }
+    }
+    TrueCell t;
+    bool above = false;
+    for (const float z : zs) {
+      const double h = z - ground;
+      t.blocked = t.blocked || (h > step && h <= robot_height);
+      above = above || h > robot_height;
+    }
+    t.overhang = above && !t.blocked;
+    out.emplace(key, t);
+  }
+  return out;
+}
+
+/// Agreement of a 2D grid with the true traversability over the cells it knows (map_server's
+/// thresholds: occupied from 0.65, free up to 0.196, between them undecided and not counted).
+struct GridScores {
+  std::size_t compared = 0;
+  std::size_t correct = 0;
+  std::size_t blocked = 0, blocked_found = 0;
+  std::size_t free = 0, free_found = 0;
+  std::size_t overhang = 0, overhang_free = 0;
+  [[nodiscard]] static double ratio(std::size_t a, std::size_t b) {
+    return b ? static_cast<double>(a) / static_cast<double>(b) : 0.0;
+  }
+  [[nodiscard]] double accuracy() const { return ratio(correct, compared); }
+  [[nodiscard]] double blocked_recall() const { return ratio(blocked_found, blocked); }
+  [[nodiscard]] double free_recall() const { return ratio(free_found, free); }
+  [[nodiscard]] double overhang_accuracy() const { return ratio(overhang_free, overhang); }
+};
+
+GridScores score_grid(const OccupancyGrid& grid, const std::unordered_map<CellKey, TrueCell, CellKeyHash>& truth,
+                      const std::function<bool(const CellKey&)>& in_common) {
+  GridScores s;
+  for (const auto& [key, t] : truth) {
+    if (!in_common(key)) continue;
+    const double p = *grid.probability_at(key);
+    if (p > 0.196 && p < 0.65) continue;
+    const bool says_blocked = p >= 0.65;
+    ++s.compared;
+    s.correct += says_blocked == t.blocked ? 1 : 0;
+    if (t.blocked) {
+      ++s.blocked;
+      s.blocked_found += says_blocked ? 1 : 0;
+    } else {
+      ++s.free;
+      s.free_found += says_blocked ? 0 : 1;
+    }
+    if (t.overhang) {
+      ++s.overhang;
+      s.overhang_free += says_blocked ? 0 : 1;
+    }
+  }
+  return s;
+}
+
+nlohmann::json grid_json(const GridScores& s) {
+  return {{"cells_compared", s.compared}, {"accuracy", s.accuracy()}, {"blocked_cells", s.blocked},
+          {"blocked_recall", s.blocked_recall()}, {"free_cells", s.free}, {"free_recall", s.free_recall()},
+          {"overhang_cells", s.overhang}, {"overhang_free", s.overhang_accuracy()}};
+}
+
+void run_compare(const CompareOptions& o) {
+  const Params params = o.params.resolve();
+  const ScanSource src = ScanSource::open(o.sensors, o.kitti, o.files, o.poses, o.scans, /*poses_required=*/true);
+  if (src.scans.empty()) throw Error("no scans to compare on");
+  const PoseList& poses = *src.T_map_scan;
+  std::filesystem::create_directories(o.out);
+
+  // The same scans, once read, into the three systems.
+  HybridMapper hybrid(params);
+  // Like elevation_mapping's ignore_points_above: without it the 2.5D map of a room is its ceiling.
+  ElevationParams elevation_params;
+  elevation_params.max_height_above_sensor = o.elevation_ceiling.value_or(params.occupancy.z_plus);
+  ElevationMapper elevation(params, elevation_params);
+  octomap::OcTree octree(params.map.cell_size);
+  SystemResult r_hmap{"HMAP", 0.0, 0, std::nullopt};
+  SystemResult r_25d{"2.5D [9]", 0.0, 0, std::nullopt};
+  SystemResult r_octo{"OctoMap", 0.0, 0, std::nullopt};
+  PointCloud cloud_map;  // every kept point in the map frame, for the point-cloud panel
+  CloudReadStats read_stats;
+  Progress progress("comparing", src.scans.size());
+  const double min2 = params.map.min_range * params.map.min_range;
+  const double max2 = params.map.max_range * params.map.max_range;
+  for (std::size_t k = 0; k < src.scans.size(); ++k) {
+    const PointCloud cloud = src.read(k, read_stats);
+    const Pose& T = poses[k];
+    auto t0 = Clock::now();
+    hybrid.integrate(cloud, T);
+    r_hmap.ms_per_scan += ms_since(t0);
+    t0 = Clock::now();
+    elevation.integrate(cloud, T);
+    r_25d.ms_per_scan += ms_since(t0);
+    octomap::Pointcloud octo_cloud;
+    octo_cloud.reserve(cloud.size());
+    for (std::size_t n = 0; n < cloud.size(); ++n) {
+      const Point3f& p = cloud[n];
+      const double r2 = p.cast<double>().squaredNorm();
+      if (!p.allFinite() || r2 < min2 || r2 > max2) continue;
+      const Eigen::Vector3d q = T * p.cast<double>();
+      octo_cloud.push_back(static_cast<float>(q.x()), static_cast<float>(q.y()), static_cast<float>(q.z()));
+      if (n % 4 == 0) cloud_map.push_back(q.cast<float>());
+    }
+    const Eigen::Vector3d origin = T.translation();
+    t0 = Clock::now();
+    octree.insertPointCloud(octo_cloud, octomap::point3d(static_cast<float>(origin.x()), static_cast<float>(origin.y()),
+                                                         static_cast<float>(origin.z())),
+                            params.map.max_range);
+    r_octo.ms_per_scan += ms_since(t0);
+    progress.update(k + 1, r_hmap.ms_per_scan / static_cast<double>(k + 1));
+  }
+  progress.finish();
+  // The 2D grid of [9]: ground patches on the 2.5D map, grown along the same trajectory.
+  const auto t_ground = Clock::now();
+  const HMap elevation_hmap = as_hmap(elevation.map());
+  GroundTracker ground_25d(params.ground);
+  for (const Pose& T : poses) ground_25d.update(elevation_hmap, T.translation(), params.map.max_range);
+  const OccupancyGrid grid_25d =
+      occupancy_from_elevation(elevation.map(), ground_25d.model(), params, params.occupancy.ground_reach);
+  r_25d.ms_per_scan += ms_since(t_ground);
+  const auto n = static_cast<double>(src.scans.size());
+  for (SystemResult* r : {&r_hmap, &r_25d, &r_octo}) r->ms_per_scan /= n;
+  r_hmap.memory_bytes = hybrid.map().stats().memory_bytes + hybrid.grid().memory_bytes();
+  r_25d.memory_bytes = elevation.map().memory_bytes() + grid_25d.memory_bytes();
+  r_octo.memory_bytes = octree.memoryUsage();
+  save_hmap(std::filesystem::path(o.out) / "hmap.hmap", hybrid.map(), hybrid.ground_patches(), &hybrid.grid());
+
+  // Pictures: Fig. 5/6's five columns, top-down and oblique.
+  const MapStats st = hybrid.map().stats();
+  if (st.hvoxels == 0) throw Error("the HMAP of these scans is empty: nothing to compare");
+  const HeightRange range = resolve_range(hybrid.map(), {});
+  const TopViewport vp = viewport_over(st.bounds.min().x(), st.bounds.min().y(), st.bounds.max().x(),
+                                       st.bounds.max().y(), params.map.cell_size, o.max_pixels);
+  const HMap display_25d = elevation_display(elevation.map());
+  RgbImage hmap_2d = render_occupancy(hybrid.grid(), vp);
+  draw_ground_patches(hmap_2d, vp, hybrid.ground_patches(), 40, 170, 40);
+  const RgbImage top = side_by_side({{"I POINT CLOUD", render_points_top(cloud_map, range, vp)},
+                                     {"II HMAP", render_top_in(hybrid.map(), range, vp)},
+                                     {"III HMAP 2D", hmap_2d},
+                                     {"IV 2.5D", render_top_in(display_25d, range, vp)},
+                                     {"V 2.5D 2D", render_occupancy(grid_25d, vp)}});
+  const auto out = [&](const char* name) { return (std::filesystem::path(o.out) / name).string(); };
+  write_png(out("compare_top.png"), top);
+  const int oblique_px = std::max(300, o.max_pixels * 2 / 3);
+  write_png(out("compare_oblique.png"), side_by_side({{"II HMAP", render_oblique(hybrid.map(), range, oblique_px)},
+                                                      {"IV 2.5D", render_oblique(display_25d, range, oblique_px)}}));
+
+  // Accuracy against the truth, when given.
+  nlohmann::json report;
+  report["scans"] = src.scans.size();
+  report["cell_size_m"] = params.map.cell_size;
+  const double robot_height = o.robot_height.value_or(params.occupancy.z_plus);
+  std::optional<GridScores> g_hmap, g_25d;
+  if (!o.truth.empty()) {
+    const std::filesystem::path dir(o.truth);
+    const auto seen_path = dir / "truth_seen.ply";
+    const auto surface_path = dir / "truth.ply";
+    if (!std::filesystem::exists(seen_path) || !std::filesystem::exists(surface_path)) {
+      throw Error(o.truth + ": expected truth.ply and truth_seen.ply (as `hmap simulate` writes them)");
+    }
+    const PointCloud seen = read_cloud(seen_path);
+    const PointCloud surface = read_cloud(surface_path);
+    r_hmap.metrics = evaluate_map(hybrid.map(), seen);
+    r_25d.metrics = evaluate_map(elevation_hmap, seen);
+    r_octo.metrics = evaluate_map(octomap_as_hmap(octree, params), seen);
+    const auto truth_2d = true_traversability(surface, params.map.cell_size, 2.0 * params.occupancy.ground_distance,
+                                              robot_height);
+    // Scored on the cells both grids decided and the truth knows: the same cells for both.
+    const auto both = [&](const CellKey& key) {
+      return hybrid.grid().probability_at(key).has_value() && grid_25d.probability_at(key).has_value();
+    };
+    g_hmap = score_grid(hybrid.grid(), truth_2d, both);
+    g_25d = score_grid(grid_25d, truth_2d, both);
+  }
+
+  // The report.
+  std::ostringstream md;
+  md << "# HMAP vs 2.5D vs OctoMap\n\n" << src.scans.size() << " scans, cell " << params.map.cell_size
+     << " m, range " << params.map.min_range << "-" << params.map.max_range << " m.\n\n";
+  md << "| system | ms per scan | memory | 3D precision (exact / 1 voxel) | 3D recall (exact / 1 voxel) | Chamfer [m] |\n";
+  md << "| --- | --- | --- | --- | --- | --- |\n";
+  for (const SystemResult* r : {&r_hmap, &r_25d, &r_octo}) {
+    char line[512];
+    if (r->metrics) {
+      std::snprintf(line, sizeof line, "| %s | %.2f | %s | %.3f / %.3f | %.3f / %.3f | %.3f |\n", r->name.c_str(),
+                    r->ms_per_scan, human_bytes(static_cast<double>(r->memory_bytes)).c_str(),
+                    r->metrics->exact.precision, r->metrics->tolerant.precision, r->metrics->exact.recall,
+                    r->metrics->tolerant.recall, r->metrics->chamfer.chamfer_m);
+    } else {
+      std::snprintf(line, sizeof line, "| %s | %.2f | %s | - | - | - |\n", r->name.c_str(), r->ms_per_scan,
+                    human_bytes(static_cast<double>(r->memory_bytes)).c_str());
+    }
+    md << line;
+    nlohmann::json j{{"ms_per_scan", r->ms_per_scan}, {"memory_bytes", r->memory_bytes}};
+    if (r->metrics) {
+      j["precision_exact"] = r->metrics->exact.precision;
+      j["precision_1voxel"] = r->metrics->tolerant.precision;
+      j["recall_exact"] = r->metrics->exact.recall;
+      j["recall_1voxel"] = r->metrics->tolerant.recall;
+      j["chamfer_m"] = r->metrics->chamfer.chamfer_m;
+    }
+    report["systems"][r->name] = j;
+  }
+  md << "\nms per scan of 2.5D includes its ground extraction and 2D grid, run once at the end and divided by the scans; "
+        "HMAP's includes its per-scan ground tree and 2D grid update. 3D scores: voxels of the cell size against the "
+        "surface the sensor saw (truth_seen.ply); the 2.5D map as one HVoxel per cell at its elevation; OctoMap's "
+        "occupied leaves.\n";
+  if (g_hmap && g_25d) {
+    char line[512];
+    md << "\n## 2D occupancy against the true traversability (robot " << robot_height << " m tall, steps over "
+       << 2.0 * params.occupancy.ground_distance << " m block)\n\n";
+    md << "| 2D grid | cells compared | accuracy | blocked found | free found | free under overhangs |\n| --- | --- | --- | --- | --- | --- |\n";
+    for (const auto& [name, g] : {std::pair{"HMAP", *g_hmap}, std::pair{"2.5D [9]", *g_25d}}) {
+      std::snprintf(line, sizeof line, "| %s | %zu | %.3f | %.3f (%zu) | %.3f (%zu) | %.3f (%zu) |\n", name, g.compared,
+                    g.accuracy(), g.blocked_recall(), g.blocked, g.free_recall(), g.free, g.overhang_accuracy(), g.overhang);
+      md << line;
+    }
+    md << "\nCells both grids decided (map_server thresholds: occupied >= 0.65, free <= 0.196) where the truth has "
+          "a surface. Overhang cells: free ground under something higher than the robot (table tops, tree crowns, "
+          "ceilings).\n";
+    report["grid_2d"] = {{"robot_height_m", robot_height}, {"hmap", grid_json(*g_hmap)}, {"elevation_25d", grid_json(*g_25d)}};
+  }
+  md << "\nPictures: compare_top.png (I point cloud, II HMAP, III HMAP 2D with its ground patches, IV 2.5D, V 2.5D 2D) "
+        "and compare_oblique.png.\n";
+  write_file_atomic(out("report.md"), [&](std::ostream& f) { f << md.str(); });
+  write_file_atomic(out("report.json"), [&](std::ostream& f) { f << report.dump(2) << '\n'; });
+  std::fputs(md.str().c_str(), stdout);
+}
+
+}  // namespace
+
+void add_compare_command(CLI::App& app) {
+  auto opts = std::make_shared<CompareOptions>();
+  auto* cmd = app.add_subcommand("compare", "Build HMAP, the 2.5D map of [9] and OctoMap from the same scans; pictures and tables");
+  cmd->add_option("--kitti", opts->kitti, "KITTI sequence folder (velodyne/*.bin, poses.txt)");
+  cmd->add_option("scans", opts->files, "Scan files, in order (with --poses)");
+  cmd->add_option("--poses", opts->poses, "Poses T_map_scan, KITTI or TUM format");
+  cmd->add_option("--scans", opts->scans, "Use only the first N scans");
+  cmd->add_option("--truth", opts->truth, "Folder with truth.ply and truth_seen.ply (a `hmap simulate` output)");
+  cmd->add_option("--robot-height", opts->robot_height, "[m] for the true traversability (default occupancy.z_plus)");
+  cmd->add_option("--elevation-ceiling", opts->elevation_ceiling,
+                  "[m] above the sensor: higher points are left out of the 2.5D map (default occupancy.z_plus)");
+  cmd->add_option("--max-pixels", opts->max_pixels, "Largest side of each top-view panel")->capture_default_str();
+  cmd->add_option("--out,-o", opts->out, "Output folder")->required();
+  opts->params.add_to(*cmd);
+  opts->sensors.add_to(*cmd);
+  cmd->callback([opts] { run_compare(*opts); });
+}
+
+}  // namespace hmap::cli
