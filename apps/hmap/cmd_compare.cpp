@@ -103,17 +103,40 @@ HMap elevation_display(const ElevationMap& elevation) {
   return map;
 }
 
+/// The map with everything above `z_cut` left out (HVoxels clipped there): the top views show
+/// what lies under the ceiling, as the 2.5D map sees it.
+HMap cut_above(const HMap& map, double z_cut) {
+  HMap out(map.params());
+  const auto cut = static_cast<float>(z_cut);
+  map.for_each_column([&](const CellKey& key, const Column& c) {
+    bool any = false;
+    for (const HVoxel& v : c) any = any || v.z_min <= cut;
+    if (!any) return;
+    Column& column = out.column_for_update(key);
+    for (const HVoxel& v : c) {
+      if (v.z_min > cut) break;
+      HVoxel clipped = v;
+      clipped.z_max = std::min(v.z_max, cut);
+      column.push_back(clipped);
+    }
+  });
+  return out;
+}
+
 /// True traversability per cell from the true surface points: the ground is the lowest point in
 /// the 5x5 cells around (so a box top is not taken for ground), and a cell is blocked when a
-/// point rises more than `step` [m] and at most `robot_height` [m] above that ground. Cells with
-/// truth points above the robot only (over free ground) are "overhang" cells: the paper's case.
+/// point rises more than `step` [m] and at most `robot_height` [m] above that ground. Free cells
+/// under a surface higher than the robot but below `z_cut` (the 2.5D map's ceiling cut, an
+/// absolute height) are "overhang" cells: tables, tree crowns, the paper's case. A ceiling above
+/// the cut is no overhang: neither map is asked about it.
 struct TrueCell {
   bool blocked = false;
   bool overhang = false;
 };
 
 std::unordered_map<CellKey, TrueCell, CellKeyHash> true_traversability(const PointCloud& truth, double cell,
-                                                                      double step, double robot_height) {
+                                                                      double step, double robot_height,
+                                                                      double z_cut) {
   std::unordered_map<CellKey, float, CellKeyHash> lowest;
   std::unordered_map<CellKey, std::vector<float>, CellKeyHash> heights;
   for (const Point3f& p : truth) {
@@ -135,7 +158,7 @@ std::unordered_map<CellKey, TrueCell, CellKeyHash> true_traversability(const Poi
     for (const float z : zs) {
       const double h = z - ground;
       t.blocked = t.blocked || (h > step && h <= robot_height);
-      above = above || h > robot_height;
+      above = above || (h > robot_height && z <= z_cut);
     }
     t.overhang = above && !t.blocked;
     out.emplace(key, t);
@@ -203,6 +226,11 @@ void run_compare(const CompareOptions& o) {
   // Like elevation_mapping's ignore_points_above: without it the 2.5D map of a room is its ceiling.
   ElevationParams elevation_params;
   elevation_params.max_height_above_sensor = o.elevation_ceiling.value_or(params.occupancy.z_plus);
+  // The top views leave out what lies above the same cut, at the sensor's median height.
+  std::vector<double> sensor_z;
+  for (const Pose& T : poses) sensor_z.push_back(T.translation().z());
+  std::nth_element(sensor_z.begin(), sensor_z.begin() + static_cast<std::ptrdiff_t>(sensor_z.size() / 2), sensor_z.end());
+  const double z_cut = sensor_z[sensor_z.size() / 2] + elevation_params.max_height_above_sensor;
   ElevationMapper elevation(params, elevation_params);
   octomap::OcTree octree(params.map.cell_size);
   SystemResult r_hmap{"HMAP", 0.0, 0, std::nullopt};
@@ -230,7 +258,7 @@ void run_compare(const CompareOptions& o) {
       if (!p.allFinite() || r2 < min2 || r2 > max2) continue;
       const Eigen::Vector3d q = T * p.cast<double>();
       octo_cloud.push_back(static_cast<float>(q.x()), static_cast<float>(q.y()), static_cast<float>(q.z()));
-      if (n % 4 == 0) cloud_map.push_back(q.cast<float>());
+      if (n % 4 == 0 && q.z() <= z_cut) cloud_map.push_back(q.cast<float>());
     }
     const Eigen::Vector3d origin = T.translation();
     t0 = Clock::now();
@@ -259,21 +287,21 @@ void run_compare(const CompareOptions& o) {
   // Pictures: Fig. 5/6's five columns, top-down and oblique.
   const MapStats st = hybrid.map().stats();
   if (st.hvoxels == 0) throw Error("the HMAP of these scans is empty: nothing to compare");
-  const HeightRange range = resolve_range(hybrid.map(), {});
+  const HMap hmap_cut = cut_above(hybrid.map(), z_cut);
+  if (hmap_cut.stats().hvoxels == 0) throw Error("nothing of the map lies below the display cut at z = " + std::to_string(z_cut) + " m");
+  const HeightRange range = resolve_range(hmap_cut, {});
   const TopViewport vp = viewport_over(st.bounds.min().x(), st.bounds.min().y(), st.bounds.max().x(),
                                        st.bounds.max().y(), params.map.cell_size, o.max_pixels);
   const HMap display_25d = elevation_display(elevation.map());
-  RgbImage hmap_2d = render_occupancy(hybrid.grid(), vp);
-  draw_ground_patches(hmap_2d, vp, hybrid.ground_patches(), 40, 170, 40);
   const RgbImage top = side_by_side({{"I POINT CLOUD", render_points_top(cloud_map, range, vp)},
-                                     {"II HMAP", render_top_in(hybrid.map(), range, vp)},
-                                     {"III HMAP 2D", hmap_2d},
+                                     {"II HMAP", render_top_in(hmap_cut, range, vp)},
+                                     {"III HMAP 2D", render_occupancy(hybrid.grid(), vp)},
                                      {"IV 2.5D", render_top_in(display_25d, range, vp)},
                                      {"V 2.5D 2D", render_occupancy(grid_25d, vp)}});
   const auto out = [&](const char* name) { return (std::filesystem::path(o.out) / name).string(); };
   write_png(out("compare_top.png"), top);
   const int oblique_px = std::max(300, o.max_pixels * 2 / 3);
-  write_png(out("compare_oblique.png"), side_by_side({{"II HMAP", render_oblique(hybrid.map(), range, oblique_px)},
+  write_png(out("compare_oblique.png"), side_by_side({{"II HMAP", render_oblique(hmap_cut, range, oblique_px)},
                                                       {"IV 2.5D", render_oblique(display_25d, range, oblique_px)}}));
 
   // Accuracy against the truth, when given.
@@ -295,7 +323,7 @@ void run_compare(const CompareOptions& o) {
     r_25d.metrics = evaluate_map(elevation_hmap, seen);
     r_octo.metrics = evaluate_map(octomap_as_hmap(octree, params), seen);
     const auto truth_2d = true_traversability(surface, params.map.cell_size, 2.0 * params.occupancy.ground_distance,
-                                              robot_height);
+                                              robot_height, z_cut);
     // Scored on the cells both grids decided and the truth knows: the same cells for both.
     const auto both = [&](const CellKey& key) {
       return hybrid.grid().probability_at(key).has_value() && grid_25d.probability_at(key).has_value();
@@ -346,13 +374,20 @@ void run_compare(const CompareOptions& o) {
                     g.accuracy(), g.blocked_recall(), g.blocked, g.free_recall(), g.free, g.overhang_accuracy(), g.overhang);
       md << line;
     }
-    md << "\nCells both grids decided (map_server thresholds: occupied >= 0.65, free <= 0.196) where the truth has "
-          "a surface. Overhang cells: free ground under something higher than the robot (table tops, tree crowns, "
-          "ceilings).\n";
+    md << "\nCells both grids observed where the truth has a surface, each grid scored on those it decided "
+          "(map_server thresholds: occupied >= 0.65, free <= 0.196). Overhang cells: free ground under something higher than the robot and below the 2.5D "
+          "map's cut (table tops, tree crowns, low ceilings).\n";
     report["grid_2d"] = {{"robot_height_m", robot_height}, {"hmap", grid_json(*g_hmap)}, {"elevation_25d", grid_json(*g_25d)}};
   }
-  md << "\nPictures: compare_top.png (I point cloud, II HMAP, III HMAP 2D with its ground patches, IV 2.5D, V 2.5D 2D) "
-        "and compare_oblique.png.\n";
+  char cut_line[512];
+  std::snprintf(cut_line, sizeof cut_line,
+                "\nPictures: compare_top.png (I point cloud, II HMAP, III HMAP 2D, IV 2.5D, V 2.5D 2D; 2D grids as "
+                "map_server reads them: free white, occupied black, unknown grey) and compare_oblique.png. The 3D "
+                "views leave out what lies above z = %.2f m (the 2.5D map's cut, %.2f m above the sensor's median "
+                "height).\n",
+                z_cut, elevation_params.max_height_above_sensor);
+  md << cut_line;
+  report["display_cut_z_m"] = z_cut;
   write_file_atomic(out("report.md"), [&](std::ostream& f) { f << md.str(); });
   write_file_atomic(out("report.json"), [&](std::ostream& f) { f << report.dump(2) << '\n'; });
   std::fputs(md.str().c_str(), stdout);

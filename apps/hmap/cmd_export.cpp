@@ -24,8 +24,15 @@ struct ExportOptions {
   std::vector<double> ground_hint;
   int ground_iterations = 0;
   bool points = false;
+  bool rederive = false;
   double z_step = 0.0;
 };
+
+std::pair<std::size_t, std::size_t> count_classes(const OccupancyGrid& grid) {
+  std::size_t occupied = 0, free_cells = 0;
+  grid.for_each_cell([&](const CellKey&, float l) { (l > 0.0F ? occupied : free_cells) += 1; });
+  return {occupied, free_cells};
+}
 
 /// The 2D occupancy of a saved map as map_server PGM + YAML: ground patches by Alg. 4 from a hint
 /// (given, or the middle of the map at a low height), then each column judged by eq. (4)'s cases.
@@ -58,9 +65,8 @@ void export_pgm(const HMap& map, const ExportOptions& o) {
   const GroundModel model(ground.patches);
   const OccupancyGrid grid = occupancy_from_map(map, model, params, 2.0 * d_n);
   write_pgm_map(o.pgm, grid);
-  std::size_t occupied = 0, free_cells = 0;
-  grid.for_each_cell([&](const CellKey&, float l) { (l > 0.0F ? occupied : free_cells) += 1; });
-  std::printf("wrote %s.pgm + .yaml: %zu occupied and %zu free cells of %.3f m, from %zu ground patches "
+  const auto [occupied, free_cells] = count_classes(grid);
+  std::printf("wrote %s.pgm + .yaml: %zu occupied and %zu free cells of %.3f m, derived from %zu ground patches "
               "(%d RRT iterations, %.1f s); cells without a ground patch within %.2f m are unknown\n",
               std::filesystem::path(o.pgm).replace_extension().string().c_str(), occupied, free_cells, map.cell_size(),
               ground.patches.size(), params.ground.iterations, ms_since(t0) / 1000.0, 2.0 * d_n);
@@ -70,8 +76,21 @@ void run_export(const ExportOptions& o) {
   if (o.ply.empty() && o.bt.empty() && o.pgm.empty()) {
     throw Error("nothing to export: give --ply OUT.ply, --bt OUT.bt and/or --pgm OUT");
   }
-  const HMap map = load_hmap(o.map);
-  if (!o.pgm.empty()) export_pgm(map, o);
+  MapFile file = load_map_file(o.map);
+  const HMap& map = file.map;
+  if (!o.pgm.empty()) {
+    // The grid kept scan by scan (eq. 3-4 with every ray) is the better map; a map saved without it
+    // (hmap map --hvoxels-only, or older files) gets one derived from its columns.
+    if (file.grid && file.grid->known_cells() > 0 && !o.rederive) {
+      write_pgm_map(o.pgm, *file.grid);
+      const auto [occupied, free_cells] = count_classes(*file.grid);
+      std::printf("wrote %s.pgm + .yaml: the map's own 2D grid, %zu occupied and %zu free cells of %.3f m\n",
+                  std::filesystem::path(o.pgm).replace_extension().string().c_str(), occupied, free_cells,
+                  map.cell_size());
+    } else {
+      export_pgm(map, o);
+    }
+  }
   if (o.ply.empty() && o.bt.empty()) return;
   if (!o.bt.empty()) {
     const std::size_t leaves = write_octomap_bt(o.bt, map);
@@ -97,6 +116,8 @@ void add_export_command(CLI::App& app) {
   cmd->add_option("map", opts->map, "Map file (.hmap)")->required();
   cmd->add_option("--ply", opts->ply, "Output PLY file");
   cmd->add_option("--pgm", opts->pgm, "Output 2D occupancy as ROS map_server PGM + YAML (OUT.pgm, OUT.yaml)");
+  cmd->add_flag("--rederive", opts->rederive,
+                "Derive the 2D grid from the HVoxels even when the map file holds one kept scan by scan");
   cmd->add_option("--ground-hint", opts->ground_hint, "A point near the floor, X Y Z [m], to start the ground search")
       ->expected(3);
   cmd->add_option("--ground-iterations", opts->ground_iterations, "RRT iterations K (default: grows with the map area)");

@@ -5,6 +5,7 @@
 #include "cli_common.hpp"
 #include "hmap/io/hmap_file.hpp"
 #include "hmap/maps/mapper.hpp"
+#include "hmap/occupancy/hybrid_mapper.hpp"
 
 namespace hmap::cli {
 
@@ -18,21 +19,34 @@ struct MapOptions {
   std::string poses;
   std::size_t scans = 0;
   std::string out;
+  bool hvoxels_only = false;
 };
 
 void run_map(const MapOptions& o) {
   const Params params = o.params.resolve();
   const ScanSource src = ScanSource::open(o.sensors, o.kitti, o.files, o.poses, o.scans, /*poses_required=*/true);
   if (!src.description.empty()) std::fprintf(stderr, "input: %s\n", src.description.c_str());
+  // The hybrid map of section IV by default: the HMAP, the ground patches of Alg. 4 and the 2D
+  // grid of eq. (3)-(4), all saved; --hvoxels-only keeps section III alone (faster).
+  HybridMapper hybrid(params);
   Mapper mapper(params);
   CloudReadStats read_stats;
   ScanStats total;
+  std::size_t no_ground = 0, grid_rays = 0;
   double ms_integrate = 0.0;
   Progress progress("mapping", src.scans.size());
   for (std::size_t k = 0; k < src.scans.size(); ++k) {
     const PointCloud cloud = src.read(k, read_stats);
     const auto t0 = Clock::now();
-    const ScanStats s = mapper.integrate(cloud, (*src.T_map_scan)[k]);
+    ScanStats s;
+    if (o.hvoxels_only) {
+      s = mapper.integrate(cloud, (*src.T_map_scan)[k]);
+    } else {
+      const HybridScanStats h = hybrid.integrate(cloud, (*src.T_map_scan)[k]);
+      s = h.map;
+      no_ground += h.occupancy.no_ground;
+      grid_rays += h.occupancy.rays;
+    }
     ms_integrate += ms_since(t0);
     total.points_in += s.points_in;
     total.points_kept += s.points_kept;
@@ -42,8 +56,13 @@ void run_map(const MapOptions& o) {
     progress.update(k + 1, ms_integrate / static_cast<double>(k + 1));
   }
   progress.finish();
-  save_hmap(o.out, mapper.map());
-  const MapStats st = mapper.map().stats();
+  const HMap& map = o.hvoxels_only ? mapper.map() : hybrid.map();
+  if (o.hvoxels_only) {
+    save_hmap(o.out, map);
+  } else {
+    save_hmap(o.out, map, hybrid.ground_patches(), &hybrid.grid());
+  }
+  const MapStats st = map.stats();
   const auto n = static_cast<double>(src.scans.size());
   std::printf(
       "Mapped %zu scans: %s points read, %s kept, %s dropped (%s not finite, %s out of the %.2f-%.2f m "
@@ -59,6 +78,13 @@ void run_map(const MapOptions& o) {
       st.cells, st.hvoxels, human_bytes(static_cast<double>(st.memory_bytes)).c_str(), params.map.cell_size,
       total.extrusion.removed, o.out.c_str(),
       human_bytes(static_cast<double>(std::filesystem::file_size(o.out))).c_str());
+  if (!o.hvoxels_only) {
+    std::size_t occupied = 0, free_cells = 0;
+    hybrid.grid().for_each_cell([&](const CellKey&, float l) { (l > 0.0F ? occupied : free_cells) += 1; });
+    std::printf("The 2D grid has %zu occupied and %zu free cells; %zu ground patches; %zu of %zu scan cells had no "
+                "ground patch near them and left the grid alone.\n",
+                occupied, free_cells, hybrid.ground_patches().size(), no_ground, grid_rays + no_ground);
+  }
 }
 
 }  // namespace
@@ -71,6 +97,8 @@ void add_map_command(CLI::App& app) {
   cmd->add_option("--poses", opts->poses, "Poses T_map_scan, KITTI or TUM format, one per scan");
   cmd->add_option("--scans", opts->scans, "Use only the first N scans");
   cmd->add_option("--out,-o", opts->out, "Output map file (.hmap)")->required();
+  cmd->add_flag("--hvoxels-only", opts->hvoxels_only,
+                "Build the HMAP alone (section III), without the ground patches and the 2D grid");
   opts->params.add_to(*cmd);
   opts->sensors.add_to(*cmd);
   cmd->callback([opts] { run_map(*opts); });

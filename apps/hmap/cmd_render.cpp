@@ -6,6 +6,7 @@
 #include "hmap/core/error.hpp"
 #include "hmap/io/hmap_file.hpp"
 #include "hmap/io/poses.hpp"
+#include "hmap/occupancy/occupancy_grid.hpp"
 #include "render.hpp"
 
 namespace hmap::cli {
@@ -16,15 +17,25 @@ struct RenderOptions {
   std::string map;
   std::string out;
   std::string view = "top";
+  std::string layer = "height";
   std::vector<std::string> trajectories;
   HeightRange range;
   int max_pixels = 2000;
 };
 
 void run_render(const RenderOptions& o) {
-  const HMap map = load_hmap(o.map);
+  const MapFile file = load_map_file(o.map);
+  const HMap& map = file.map;
   if (map.stats().hvoxels == 0) throw Error(o.map + ": the map is empty, nothing to render");
   const HeightRange range = resolve_range(map, o.range);
+  if (o.layer != "height" && o.view == "oblique") throw Error("--layer " + o.layer + " is drawn on the top view only");
+  if (o.layer == "occupancy" && (!file.grid || file.grid->known_cells() == 0)) {
+    throw Error(o.map + ": the map holds no 2D occupancy (built with --hvoxels-only, or no ground patch was found "
+                "while mapping); `hmap export --pgm` derives a grid from the HVoxels");
+  }
+  if (o.layer == "ground" && file.ground.empty()) {
+    throw Error(o.map + ": the map holds no ground patches (built with --hvoxels-only, or no ground was found)");
+  }
   if (o.view == "oblique") {
     if (!o.trajectories.empty()) throw Error("--trajectory is drawn on the top view only");
     write_png(o.out, render_oblique(map, range, o.max_pixels));
@@ -36,6 +47,12 @@ void run_render(const RenderOptions& o) {
   for (const auto& t : o.trajectories) paths.push_back(read_poses(t));
   TopViewport vp;
   RgbImage img = render_top(map, range, o.max_pixels, vp, paths.empty() ? 0.0 : 2.0);
+  if (o.layer == "occupancy") {
+    // map_server's picture of the grid: free white, occupied black, unknown grey.
+    img = render_occupancy(*file.grid, vp);
+  } else if (o.layer == "ground") {
+    draw_ground_patches(img, vp, file.ground, 255, 255, 255);
+  }
   // First path white (the truth, by convention), then red, magenta, orange.
   const std::uint8_t colours[4][3] = {{255, 255, 255}, {255, 40, 40}, {255, 0, 255}, {255, 160, 0}};
   for (std::size_t k = 0; k < paths.size(); ++k) {
@@ -43,10 +60,18 @@ void run_render(const RenderOptions& o) {
     draw_path(img, vp, paths[k], c[0], c[1], c[2]);
   }
   write_png(o.out, img);
-  std::printf("wrote %s: %dx%d pixels, %.3f m per pixel, colour from %.2f m (blue) to %.2f m (red); "
-              "light cells hold several HVoxels%s\n",
-              o.out.c_str(), img.width, img.height, vp.m_per_px, range.z_low, range.z_high,
-              paths.empty() ? "" : "; paths: first white, then red, magenta, orange");
+  if (o.layer == "occupancy") {
+    std::printf("wrote %s: %dx%d pixels, %.3f m per pixel; 2D occupancy (free white, occupied black, unknown grey) "
+                "%s\n",
+                o.out.c_str(), img.width, img.height, vp.m_per_px,
+                paths.empty() ? "" : "; paths: first white, then red, magenta, orange");
+  } else {
+    std::printf("wrote %s: %dx%d pixels, %.3f m per pixel, colour from %.2f m (blue) to %.2f m (red); "
+                "light cells hold several HVoxels%s%s\n",
+                o.out.c_str(), img.width, img.height, vp.m_per_px, range.z_low, range.z_high,
+                o.layer == "ground" ? "; ground patches outlined white" : "",
+                paths.empty() ? "" : "; paths: first white, then red, magenta, orange");
+  }
 }
 
 }  // namespace
@@ -57,6 +82,11 @@ void add_render_command(CLI::App& app) {
   cmd->add_option("map", opts->map, "Map file (.hmap)")->required();
   cmd->add_option("--out,-o", opts->out, "Output PNG file")->required();
   cmd->add_option("--view", opts->view, "top or oblique")->check(CLI::IsMember({"top", "oblique"}))->capture_default_str();
+  cmd->add_option("--layer", opts->layer,
+                  "height (HVoxel tops), occupancy (the 2D grid kept with the map) or ground (Alg. 4 patches "
+                  "over the heights)")
+      ->check(CLI::IsMember({"height", "occupancy", "ground"}))
+      ->capture_default_str();
   cmd->add_option("--trajectory", opts->trajectories, "Poses file (KITTI or TUM) drawn over the top view; repeatable");
   cmd->add_option("--z-low", opts->range.z_low, "Height drawn blue [m] (default: 2nd percentile of the tops)");
   cmd->add_option("--z-high", opts->range.z_high, "Height drawn red [m] (default: 98th percentile of the tops)");

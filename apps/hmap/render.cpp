@@ -340,12 +340,15 @@ RgbImage render_occupancy(const OccupancyGrid& grid, const TopViewport& vp) {
   RgbImage img(vp.width, vp.height, 205);
   const double cell = grid.cell_size();
   // Cells larger than a pixel cover several; smaller ones share one, the most occupied winning.
-  const int span = std::max(1, static_cast<int>(std::ceil(cell / vp.m_per_px)));
+  // A cell no larger than a pixel is placed by its centre (its corner would round onto the
+  // neighbouring pixel now and then, leaving unpainted lines); a larger one covers `span` pixels.
+  const int span = cell <= vp.m_per_px * 1.000001 ? 1 : static_cast<int>(std::ceil(cell / vp.m_per_px));
   std::vector<float> best(static_cast<std::size_t>(vp.width) * static_cast<std::size_t>(vp.height), -1.0F);
   grid.for_each_cell([&](const CellKey& key, float l) {
     const auto p = static_cast<float>(probability(l));
-    const auto x = static_cast<int>(std::floor(vp.px(key.i * cell)));
-    const auto y = static_cast<int>(std::floor(vp.py((key.j + 1) * cell)));
+    const double corner = span == 1 ? 0.5 : 0.0;
+    const auto x = static_cast<int>(std::floor(vp.px((key.i + corner) * cell)));
+    const auto y = static_cast<int>(std::floor(vp.py((key.j + 1 - corner) * cell)));
     for (int dy = 0; dy < span; ++dy) {
       for (int dx = 0; dx < span; ++dx) {
         const int xx = x + dx;
@@ -354,7 +357,8 @@ RgbImage render_occupancy(const OccupancyGrid& grid, const TopViewport& vp) {
         float& slot = best[static_cast<std::size_t>(yy) * static_cast<std::size_t>(vp.width) + static_cast<std::size_t>(xx)];
         if (p <= slot) continue;
         slot = p;
-        const auto grey = static_cast<std::uint8_t>(std::lround(255.0 * (1.0 - p)));
+        // map_server's trinary classes with its default thresholds, as Nav2 will see the map.
+        const std::uint8_t grey = p > 0.65F ? 0 : p < 0.196F ? 255 : 205;
         img.set(xx, yy, grey, grey, grey);
       }
     }

@@ -65,8 +65,8 @@ namespace hmap::cli {
 /// Top-down as render_top, in a given viewport.
 [[nodiscard]] RgbImage render_top_in(const HMap& map, const HeightRange& range, const TopViewport& viewport);
 
-/// The 2D occupancy grid as map_server shows a map: free white, occupied black, shades of grey
-/// in between by probability, never-observed cells grey (205).
+/// The 2D occupancy grid as map_server reads it in trinary mode with its default thresholds:
+/// p > 0.65 black (occupied), p < 0.196 white (free), uncertain and never-observed cells grey (205).
 [[nodiscard]] RgbImage render_occupancy(const OccupancyGrid& grid, const TopViewport& viewport);
 
 /// Points seen from above, coloured by the highest point per pixel (the raw cloud panel).

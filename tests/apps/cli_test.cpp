@@ -268,3 +268,60 @@ TEST_F(CliTest, ExportsAnOctoMapThatOctomapReadsBack) {
 
 }  // namespace
 }  // namespace hmap
+
+namespace hmap {
+namespace {
+
+// The hybrid map end to end on a small simulated office (Kinect, tables): `map` keeps the ground
+// patches and the 2D grid in the file, `export --pgm` writes that grid, `render` draws its layers,
+// and `compare` scores HMAP against the 2.5D map on the same scans.
+TEST_F(CliTest, HybridMapExportsItsGridAndCompareScoresIt) {
+  const CmdResult sim = run("simulate --scene office --sensor kinect --frames 12 --stride 4 --seed 2 --out " + path("seq"));
+  ASSERT_EQ(sim.code, 0) << sim.out;
+  const CmdResult m = run("map --kitti " + path("seq") + " --preset indoor --set occupancy.z_plus=0.5 --out " + path("m.hmap"));
+  ASSERT_EQ(m.code, 0) << m.out;
+  const MapFile file = load_map_file(path("m.hmap"));
+  ASSERT_TRUE(file.grid.has_value());
+  EXPECT_GT(file.grid->known_cells(), 1000U);
+  EXPECT_FALSE(file.ground.empty());
+
+  const CmdResult pgm = run("export " + path("m.hmap") + " --pgm " + path("grid"));
+  ASSERT_EQ(pgm.code, 0) << pgm.out;
+  EXPECT_NE(pgm.out.find("the map's own 2D grid"), std::string::npos) << pgm.out;
+  for (const char* layer : {"occupancy", "ground"}) {
+    const CmdResult r = run("render " + path("m.hmap") + " --layer " + layer + " --out " + path(std::string(layer) + ".png"));
+    EXPECT_EQ(r.code, 0) << r.out;
+    EXPECT_TRUE(std::filesystem::exists(dir_ / (std::string(layer) + ".png"))) << layer;
+  }
+  // A map built without the hybrid layers says so instead of drawing nothing.
+  const CmdResult plain = run("map --kitti " + path("seq") + " --preset indoor --hvoxels-only --scans 2 --out " + path("p.hmap"));
+  ASSERT_EQ(plain.code, 0) << plain.out;
+  EXPECT_FALSE(load_map_file(path("p.hmap")).grid.has_value());
+  const CmdResult no_grid = run("render " + path("p.hmap") + " --layer occupancy --out " + path("x.png"));
+  EXPECT_EQ(no_grid.code, 2);
+  EXPECT_NE(no_grid.out.find("p.hmap"), std::string::npos) << no_grid.out;
+  EXPECT_EQ(lines(no_grid.out), 1U) << no_grid.out;
+
+  // A robot 0.5 m tall passes under the tables: HMAP's grid (z+ = 0.5 m) sees the floor under
+  // them free, the 2.5D map (one height per cell: the table top) blocks it.
+  const CmdResult c = run("compare --kitti " + path("seq") + " --truth " + path("seq") +
+                          " --preset indoor --robot-height 0.5 --set occupancy.z_plus=0.5 --elevation-ceiling 1.0 "
+                          "--max-pixels 200 --out " + path("cmp"));
+  ASSERT_EQ(c.code, 0) << c.out;
+  for (const char* f : {"report.md", "report.json", "compare_top.png", "compare_oblique.png", "hmap.hmap"}) {
+    EXPECT_TRUE(std::filesystem::exists(dir_ / "cmp" / f)) << f;
+  }
+  std::ifstream in(dir_ / "cmp" / "report.json");
+  const auto j = nlohmann::json::parse(in);
+  for (const char* s : {"HMAP", "2.5D [9]", "OctoMap"}) ASSERT_TRUE(j.at("systems").contains(s)) << s;
+  const auto& hm = j.at("grid_2d").at("hmap");
+  const auto& el = j.at("grid_2d").at("elevation_25d");
+  ASSERT_GT(hm.at("overhang_cells").get<std::size_t>(), 20U);
+  EXPECT_GT(hm.at("overhang_free").get<double>(), el.at("overhang_free").get<double>() + 0.3);
+  EXPECT_GE(hm.at("accuracy").get<double>(), el.at("accuracy").get<double>());
+  EXPECT_GT(j.at("systems").at("HMAP").at("recall_1voxel").get<double>(),
+            j.at("systems").at("2.5D [9]").at("recall_1voxel").get<double>());
+}
+
+}  // namespace
+}  // namespace hmap
