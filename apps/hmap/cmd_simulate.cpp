@@ -52,6 +52,8 @@ void add_simulate_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--frames", opts->spec.frames, "Number of frames (default: the whole path)");
   cmd->add_option("--stride", opts->spec.stride, "Keep every N-th frame of the 10 Hz path")->capture_default_str();
+  cmd->add_flag("--long-route", opts->spec.long_route,
+                "parking: drive on after the side road (U-turn, back south, east to the street's end; ~313 m)");
   cmd->add_option("--seed", opts->spec.seed, "Noise seed")->capture_default_str();
   cmd->add_option("--truth-spacing", opts->spec.truth_spacing, "Spacing of the true surface sample [m]")->capture_default_str();
   cmd->add_option("--out,-o", opts->out, "Output folder")->required();

@@ -52,7 +52,7 @@ sim::Trajectory path_for(const SimulationSpec& spec, double height) {
   if (spec.scene_file.empty() && spec.scene == "parking") {
     sim::CarPathParams p;
     p.sensor_height = height;
-    const auto route = sim::parking_car_route();
+    const auto route = spec.long_route ? sim::parking_long_car_route() : sim::parking_car_route();
     return sim::car_path(route, p);
   }
   if (spec.scene_file.empty() && spec.scene == "boxes") {

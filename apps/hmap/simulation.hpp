@@ -17,6 +17,7 @@ struct SimulationSpec {
   std::string sensor = "vlp16";    ///< vlp16, hdl64, kinect, utm30lx-tilt, utm30lx-yaw
   std::size_t frames = 0;          ///< 0: the whole path
   std::size_t stride = 1;          ///< take every stride-th frame of the 10 Hz path
+  bool long_route = false;         ///< parking: drive on past the side road (about 313 m)
   std::uint64_t seed = 1;
   double truth_spacing = 0.1;      ///< [m] of the dense surface sample
   double truth_reach = 30.0;       ///< [m] the sample is kept this close to the path

@@ -168,6 +168,17 @@ std::vector<Eigen::Vector3d> parking_car_route() {
           {30.0, 1.6, 0.0},   {101.75, 1.6, 0.0}, {101.75, 55.0, 0.0}};
 }
 
+std::vector<Eigen::Vector3d> parking_long_car_route() {
+  std::vector<Eigen::Vector3d> route = parking_car_route();
+  // The side road is 7 m wide (x 96.5..103.5): turn within it, come back in the other lane and
+  // turn east into the street's northern lane (the parked cars stand in the southern one).
+  for (const Eigen::Vector3d& p : {Eigen::Vector3d(100.0, 58.0, 0.0), Eigen::Vector3d(98.25, 55.0, 0.0),
+                                   Eigen::Vector3d(98.25, 1.6, 0.0), Eigen::Vector3d(165.0, 1.6, 0.0)}) {
+    route.push_back(p);
+  }
+  return route;
+}
+
 // ---------------------------------------------------------------------------------------------
 // boxes
 //

@@ -36,6 +36,10 @@ namespace hmap::sim {
 /// Ground-level waypoints [m] of a drive out of the garage, up the ramp, along the street and
 /// left into the side road; for car_path.
 [[nodiscard]] std::vector<Eigen::Vector3d> parking_car_route();
+/// The same route driven on: a U-turn at the north end of the side road, back south, then east
+/// along the street to its end, past the start of the side road again (about 313 m; for SLAM
+/// figures that need a longer drive).
+[[nodiscard]] std::vector<Eigen::Vector3d> parking_long_car_route();
 
 /// boxes: the enclosure of the PVOX experiment, x in [−0.75, 0.75], y in [0, 2.7], z in [−1, 1]
 /// (z up, floor at z = −1), with box A (330 × 215 × 120 mm) and box B (370 × 75 × 785 mm) on the
