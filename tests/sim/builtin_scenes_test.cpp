@@ -1,4 +1,5 @@
 #include "hmap/sim/builtin_scenes.hpp"
+#include "hmap/sim/trajectory.hpp"
 
 #include <gtest/gtest.h>
 
@@ -96,6 +97,16 @@ TEST(BuiltinScenes, RoutesStayOutOfSolids) {
   for (const auto& p : office_robot_route()) EXPECT_FALSE(office.contains({p.x(), p.y(), 0.5}, 0.0));
   const Scene parking = make_parking_scene();
   for (const auto& p : parking_car_route()) EXPECT_FALSE(parking.contains(p + Eigen::Vector3d(0, 0, 1.73), 0.0));
+  // The long route: every sensor pose of the drive (U-turn included) stays in free space, and
+  // the drive is over 300 m.
+  const Trajectory long_drive = car_path(parking_long_car_route(), CarPathParams{});
+  double length = 0.0;
+  for (std::size_t k = 0; k < long_drive.T_world_sensor.size(); ++k) {
+    EXPECT_FALSE(parking.contains(long_drive.T_world_sensor[k].translation(), long_drive.times[k])) << "frame " << k;
+    if (k > 0) length += (long_drive.T_world_sensor[k].translation() - long_drive.T_world_sensor[k - 1].translation()).norm();
+  }
+  EXPECT_GT(length, 300.0);
+  EXPECT_LT(length, 330.0);
 }
 
 }  // namespace
