@@ -288,6 +288,8 @@ void run_compare(const CompareOptions& o) {
   // the finished map column by column with the same ground patches, as the 2.5D grid of [9] is:
   // the same question put to both representations.
   const OccupancyGrid grid_final = occupancy_from_map(hybrid.map(), hybrid.ground(), params, params.occupancy.ground_reach);
+  // Both together, as a planner would want them: each cell the more occupied of the two.
+  const OccupancyGrid grid_fused = more_occupied(hybrid.grid(), grid_final);
   const auto n = static_cast<double>(src.scans.size());
   for (SystemResult* r : {&r_hmap, &r_25d, &r_octo}) r->ms_per_scan /= n;
   r_hmap.memory_bytes = hybrid.map().stats().memory_bytes + hybrid.grid().memory_bytes();
@@ -321,7 +323,7 @@ void run_compare(const CompareOptions& o) {
   report["scans"] = src.scans.size();
   report["cell_size_m"] = params.map.cell_size;
   const double robot_height = o.robot_height.value_or(params.occupancy.z_plus);
-  std::optional<GridScores> g_hmap, g_hmap_final, g_25d;
+  std::optional<GridScores> g_hmap, g_hmap_final, g_hmap_fused, g_25d;
   if (!o.truth.empty()) {
     const std::filesystem::path dir(o.truth);
     const auto seen_path = dir / "truth_seen.ply";
@@ -342,6 +344,7 @@ void run_compare(const CompareOptions& o) {
     };
     g_hmap = score_grid(hybrid.grid(), truth_2d, both);
     g_hmap_final = score_grid(grid_final, truth_2d, both);
+    g_hmap_fused = score_grid(grid_fused, truth_2d, both);
     g_25d = score_grid(grid_25d, truth_2d, both);
   }
 
@@ -379,13 +382,14 @@ void run_compare(const CompareOptions& o) {
         "HMAP's includes its per-scan ground tree and 2D grid update. 3D scores: voxels of the cell size against the "
         "surface the sensor saw (truth_seen.ply); the 2.5D map as one HVoxel per cell at its elevation; OctoMap's "
         "occupied leaves.\n";
-  if (g_hmap && g_hmap_final && g_25d) {
+  if (g_hmap && g_hmap_final && g_hmap_fused && g_25d) {
     char line[512];
     md << "\n## 2D occupancy against the true traversability (robot " << robot_height << " m tall, steps over "
        << 2.0 * params.occupancy.ground_distance << " m block)\n\n";
     md << "| 2D grid | cells compared | accuracy | blocked found | free found | free under overhangs |\n| --- | --- | --- | --- | --- | --- |\n";
     for (const auto& [name, g] : {std::pair{"HMAP, eq. 3-4 scan by scan", *g_hmap},
                                   std::pair{"HMAP, judged from the final map", *g_hmap_final},
+                                  std::pair{"HMAP, both (the more occupied)", *g_hmap_fused},
                                   std::pair{"2.5D [9], judged from the final map", *g_25d}}) {
       std::snprintf(line, sizeof line, "| %s | %zu | %.3f | %.3f (%zu) | %.3f (%zu) | %.3f (%zu) |\n", name, g.compared,
                     g.accuracy(), g.blocked_recall(), g.blocked, g.free_recall(), g.free, g.overhang_accuracy(), g.overhang);
@@ -395,7 +399,7 @@ void run_compare(const CompareOptions& o) {
           "(map_server thresholds: occupied >= 0.65, free <= 0.196). Overhang cells: free ground under something higher than the robot and below the 2.5D "
           "map's cut (table tops, tree crowns, low ceilings).\n";
     report["grid_2d"] = {{"robot_height_m", robot_height}, {"hmap", grid_json(*g_hmap)},
-                          {"hmap_final", grid_json(*g_hmap_final)}, {"elevation_25d", grid_json(*g_25d)}};
+                          {"hmap_final", grid_json(*g_hmap_final)}, {"hmap_fused", grid_json(*g_hmap_fused)}, {"elevation_25d", grid_json(*g_25d)}};
   }
   char cut_line[512];
   std::snprintf(cut_line, sizeof cut_line,

@@ -25,6 +25,7 @@ struct ExportOptions {
   int ground_iterations = 0;
   bool points = false;
   bool rederive = false;
+  std::string grid = "both";
   double z_step = 0.0;
 };
 
@@ -82,10 +83,31 @@ void run_export(const ExportOptions& o) {
     // The grid kept scan by scan (eq. 3-4 with every ray) is the better map; a map saved without it
     // (hmap map --hvoxels-only, or older files) gets one derived from its columns.
     if (file.grid && file.grid->known_cells() > 0 && !o.rederive) {
-      write_pgm_map(o.pgm, *file.grid);
-      const auto [occupied, free_cells] = count_classes(*file.grid);
-      std::printf("wrote %s.pgm + .yaml: the map's own 2D grid, %zu occupied and %zu free cells of %.3f m\n",
-                  std::filesystem::path(o.pgm).replace_extension().string().c_str(), occupied, free_cells,
+      // "both" (default): each cell the more occupied of the grid kept scan by scan and the
+      // columns of the final map judged by eq. (4) on the same ground patches. The kept grid
+      // alone misses thin or sparsely hit obstacles outdoors (few points per cell give densities
+      // barely over 0.5 against the free passes of every ray); the judged one misses what later
+      // scans carved; docs/COMPARE.md has the figures.
+      const Params& params = map.params();
+      std::optional<OccupancyGrid> judged;
+      if (o.grid != "kept" && !file.ground.empty()) {
+        judged = occupancy_from_map(map, GroundModel(file.ground), params, params.occupancy.ground_reach);
+      }
+      const OccupancyGrid* out = &*file.grid;
+      std::optional<OccupancyGrid> fused;
+      if (judged && o.grid == "both") {
+        fused = more_occupied(*file.grid, *judged);
+        out = &*fused;
+      } else if (judged && o.grid == "judged") {
+        out = &*judged;
+      }
+      write_pgm_map(o.pgm, *out);
+      const auto [occupied, free_cells] = count_classes(*out);
+      const char* what = out == &*file.grid ? "the map's own 2D grid (kept scan by scan)"
+                         : fused            ? "the map's own 2D grid and its columns judged, the more occupied per cell"
+                                            : "the map's columns judged by eq. (4) on its ground patches";
+      std::printf("wrote %s.pgm + .yaml: %s, %zu occupied and %zu free cells of %.3f m\n",
+                  std::filesystem::path(o.pgm).replace_extension().string().c_str(), what, occupied, free_cells,
                   map.cell_size());
     } else {
       export_pgm(map, o);
@@ -116,6 +138,11 @@ void add_export_command(CLI::App& app) {
   cmd->add_option("map", opts->map, "Map file (.hmap)")->required();
   cmd->add_option("--ply", opts->ply, "Output PLY file");
   cmd->add_option("--pgm", opts->pgm, "Output 2D occupancy as ROS map_server PGM + YAML (OUT.pgm, OUT.yaml)");
+  cmd->add_option("--grid", opts->grid,
+                  "With --pgm, for a map that holds its 2D grid: kept (the grid updated scan by scan), judged (the "
+                  "final map's columns by eq. 4) or both (the more occupied of the two per cell)")
+      ->check(CLI::IsMember({"kept", "judged", "both"}))
+      ->capture_default_str();
   cmd->add_flag("--rederive", opts->rederive,
                 "Derive the 2D grid from the HVoxels even when the map file holds one kept scan by scan");
   cmd->add_option("--ground-hint", opts->ground_hint, "A point near the floor, X Y Z [m], to start the ground search")

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <array>
 #include <cstdio>
 #include <fstream>
@@ -287,7 +288,18 @@ TEST_F(CliTest, HybridMapExportsItsGridAndCompareScoresIt) {
 
   const CmdResult pgm = run("export " + path("m.hmap") + " --pgm " + path("grid"));
   ASSERT_EQ(pgm.code, 0) << pgm.out;
-  EXPECT_NE(pgm.out.find("the map's own 2D grid"), std::string::npos) << pgm.out;
+  EXPECT_NE(pgm.out.find("the map's own 2D grid and its columns judged"), std::string::npos) << pgm.out;
+  const CmdResult kept = run("export " + path("m.hmap") + " --pgm " + path("kept") + " --grid kept");
+  ASSERT_EQ(kept.code, 0) << kept.out;
+  EXPECT_NE(kept.out.find("kept scan by scan"), std::string::npos) << kept.out;
+  // The combined grid holds every obstacle of the kept one, and more.
+  const auto black_pixels = [&](const char* name) {
+    std::ifstream f(dir_ / name, std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(f)), {});
+    return std::count(bytes.begin(), bytes.end(), '\0');  // 0 never occurs in the ASCII header
+  };
+  EXPECT_GE(black_pixels("grid.pgm"), black_pixels("kept.pgm"));
+  EXPECT_GT(black_pixels("kept.pgm"), 0);
   for (const char* layer : {"occupancy", "ground"}) {
     const CmdResult r = run("render " + path("m.hmap") + " --layer " + layer + " --out " + path(std::string(layer) + ".png"));
     EXPECT_EQ(r.code, 0) << r.out;

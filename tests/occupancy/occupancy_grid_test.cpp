@@ -52,3 +52,30 @@ TEST(OccupancyGridTest, BadParametersAreRejected) {
 
 }  // namespace
 }  // namespace hmap
+
+namespace hmap {
+namespace {
+
+TEST(OccupancyGridTest, MoreOccupiedTakesTheLargerLogOddsCellByCell) {
+  OccupancyGrid a(0.1, 0.12, 0.97);
+  OccupancyGrid b(0.1, 0.12, 0.97);
+  a.set({0, 0}, -1.0F);  // free in a, occupied in b
+  b.set({0, 0}, 2.0F);
+  a.set({1, 0}, 1.5F);   // occupied in a, free in b
+  b.set({1, 0}, -1.5F);
+  a.set({-9, 4}, -0.5F);  // known to one grid only
+  b.set({20, -3}, 0.25F);
+  const OccupancyGrid c = more_occupied(a, b);
+  EXPECT_EQ(c.known_cells(), 4U);
+  EXPECT_FLOAT_EQ(*c.log_odds_at({0, 0}), 2.0F);
+  EXPECT_FLOAT_EQ(*c.log_odds_at({1, 0}), 1.5F);
+  EXPECT_FLOAT_EQ(*c.log_odds_at({-9, 4}), -0.5F);
+  EXPECT_FLOAT_EQ(*c.log_odds_at({20, -3}), 0.25F);
+  EXPECT_FALSE(c.log_odds_at({5, 5}).has_value());
+  // Empty with empty is empty; different cells are refused.
+  EXPECT_EQ(more_occupied(OccupancyGrid(0.1, 0.12, 0.97), OccupancyGrid(0.1, 0.12, 0.97)).known_cells(), 0U);
+  EXPECT_THROW((void)more_occupied(a, OccupancyGrid(0.2, 0.12, 0.97)), Error);
+}
+
+}  // namespace
+}  // namespace hmap

@@ -47,4 +47,17 @@ std::size_t OccupancyGrid::known_cells() const {
   return n;
 }
 
+OccupancyGrid more_occupied(const OccupancyGrid& a, const OccupancyGrid& b) {
+  if (std::abs(a.cell_size() - b.cell_size()) > 1e-9 * a.cell_size()) {
+    throw Error("occupancy grids of different cell sizes cannot be combined");
+  }
+  OccupancyGrid out(a.cell_size(), probability(a.clamp_min_log_odds()), probability(a.clamp_max_log_odds()));
+  a.for_each_cell([&](const CellKey& key, float l) { out.set(key, l); });
+  b.for_each_cell([&](const CellKey& key, float l) {
+    const auto kept = out.log_odds_at(key);
+    if (!kept || l > *kept) out.set(key, l);
+  });
+  return out;
+}
+
 }  // namespace hmap

@@ -75,4 +75,9 @@ class OccupancyGrid {
   TileIndex<Tile> tiles_;
 };
 
+/// The cell-wise more occupied of two grids of the same cell size (a cell known to one only keeps
+/// that one's value), with `a`'s clamping bounds: for a planner, an obstacle either grid holds is
+/// an obstacle. Throws hmap::Error when the cell sizes differ.
+[[nodiscard]] OccupancyGrid more_occupied(const OccupancyGrid& a, const OccupancyGrid& b);
+
 }  // namespace hmap
