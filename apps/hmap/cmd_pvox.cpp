@@ -19,6 +19,7 @@ namespace hmap::cli {
 namespace {
 
 struct PvoxOptions {
+  ScanSourceOptions sensors;
   std::string kitti;
   std::vector<std::string> files;
   std::string poses;
@@ -38,7 +39,8 @@ struct PvoxOptions {
 };
 
 void run_pvox(const PvoxOptions& o) {
-  const ScanSource src = ScanSource::open(o.kitti, o.files, o.poses, o.max_scans, false);
+  const ScanSource src = ScanSource::open(o.sensors, o.kitti, o.files, o.poses, o.max_scans, false);
+  if (!src.description.empty()) std::fprintf(stderr, "input: %s\n", src.description.c_str());
   std::optional<PoseList> odometry;
   if (!o.odometry.empty()) {
     odometry = read_poses(o.odometry);
@@ -179,6 +181,7 @@ void add_pvox_command(CLI::App& app) {
   cmd->add_flag("--raw-csv", o->raw_csv, "Also write the registered points as points.csv (to compare sizes)");
   cmd->add_option("--max-scans", o->max_scans, "Use at most this many scans (0: all)");
   cmd->add_option("--out", o->out, "Output folder")->required();
+  o->sensors.add_to(*cmd);
   cmd->callback([o] { run_pvox(*o); });
 }
 

@@ -20,6 +20,7 @@ namespace {
 
 struct SlamOptions {
   ParamOptions params;
+  ScanSourceOptions sensors;
   std::string kitti;
   std::vector<std::string> files;
   std::string attitude_from;
@@ -45,7 +46,15 @@ PoseList read_scan_poses(const std::string& path, std::size_t scans, const std::
 
 void run_slam(const SlamOptions& o) {
   const Params params = o.params.resolve();
-  const ScanSource src = ScanSource::open(o.kitti, o.files, "", o.scans, /*poses_required=*/false);
+  const ScanSource src = ScanSource::open(o.sensors, o.kitti, o.files, "", o.scans, /*poses_required=*/false);
+  if (!src.description.empty()) std::fprintf(stderr, "input: %s\n", src.description.c_str());
+  // RGB-D folders and bags come with poses (the camera's, or /tf and odometry topics): their z,
+  // roll and pitch serve as the attitude unless --attitude-from is given, and with
+  // `--odometry source` their motion is the initial guess.
+  const bool sensor_poses = src.frames != nullptr && src.T_map_scan.has_value();
+  if (o.odometry == "source" && !sensor_poses) {
+    throw Error("--odometry source needs an RGB-D folder or a bag (their poses are the odometry)");
+  }
   const std::size_t n = src.scans.size();
   std::optional<Pose> T_cam_velo;
   std::vector<double> times;
@@ -63,8 +72,16 @@ void run_slam(const SlamOptions& o) {
   std::optional<PoseList> attitude;
   std::optional<PoseList> odometry;
   std::optional<PoseList> truth;
-  if (!o.attitude_from.empty()) attitude = read_scan_poses(o.attitude_from, n, T_cam_velo);
-  if (!o.odometry.empty()) odometry = read_scan_poses(o.odometry, n, T_cam_velo);
+  if (!o.attitude_from.empty()) {
+    attitude = read_scan_poses(o.attitude_from, n, T_cam_velo);
+  } else if (sensor_poses) {
+    attitude = *src.T_map_scan;
+  }
+  if (o.odometry == "source") {
+    odometry = *src.T_map_scan;
+  } else if (!o.odometry.empty()) {
+    odometry = read_scan_poses(o.odometry, n, T_cam_velo);
+  }
   if (!o.gt.empty()) truth = read_scan_poses(o.gt, n, T_cam_velo);
 
   std::filesystem::create_directories(o.out);
@@ -152,11 +169,14 @@ void add_slam_command(CLI::App& app) {
   cmd->add_option("scans", opts->files, "Scan files (.pcd .ply .bin .xyz .csv .txt), in order");
   cmd->add_option("--attitude-from", opts->attitude_from,
                   "Poses (KITTI or TUM) whose z, roll and pitch are used, like an IMU's");
-  cmd->add_option("--odometry", opts->odometry, "Odometry poses: the initial guess moves by their increments");
+  cmd->add_option("--odometry", opts->odometry,
+                  "Odometry poses: the initial guess moves by their increments ('source': the poses of the RGB-D "
+                  "folder or bag)");
   cmd->add_option("--gt", opts->gt, "True poses, drawn in trajectory.png");
   cmd->add_option("--scans", opts->scans, "Use only the first N scans");
   cmd->add_option("--out,-o", opts->out, "Output folder")->required();
   opts->params.add_to(*cmd);
+  opts->sensors.add_to(*cmd);
   cmd->callback([opts] { run_slam(*opts); });
 }
 

@@ -337,3 +337,29 @@ TEST_F(CliTest, HybridMapExportsItsGridAndCompareScoresIt) {
 
 }  // namespace
 }  // namespace hmap
+
+namespace hmap {
+namespace {
+
+// RGB-D frames feed every command, not only `map`: SLAM takes the camera poses' attitude, PVOX
+// the poses as its measurements.
+TEST_F(CliTest, SlamAndPvoxReadRgbdFrames) {
+  HMAP_REQUIRE_DATA("rgbd_7scenes");
+  const std::string rgbd = (test::data_dir() / "rgbd_7scenes").string();
+  const CmdResult s = run("slam --rgbd " + rgbd + " --preset indoor --scans 4 --out " + path("slam"));
+  ASSERT_EQ(s.code, 0) << s.out;
+  std::ifstream poses(dir_ / "slam" / "poses.txt");
+  std::size_t n = 0;
+  for (std::string line; std::getline(poses, line);) n += line.empty() ? 0 : 1;
+  EXPECT_EQ(n, 4U);
+  const CmdResult p = run("pvox --rgbd " + rgbd + " --max-scans 2 --out " + path("pvox"));
+  ASSERT_EQ(p.code, 0) << p.out;
+  EXPECT_TRUE(std::filesystem::exists(dir_ / "pvox" / "map.pvox"));
+  // --odometry source without a sensor source is refused in one line.
+  const CmdResult bad = run("slam --kitti " + path("none") + " --odometry source --out " + path("x"));
+  EXPECT_EQ(bad.code, 2);
+  EXPECT_EQ(lines(bad.out), 1U) << bad.out;
+}
+
+}  // namespace
+}  // namespace hmap
