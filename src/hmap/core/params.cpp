@@ -1,7 +1,10 @@
 #include "hmap/core/params.hpp"
 
+#include <charconv>
 #include <cmath>
+#include <limits>
 #include <sstream>
+#include <type_traits>
 
 #include "hmap/core/error.hpp"
 
@@ -35,11 +38,29 @@ ParamRef ref(std::string name, std::string unit, std::string description, double
           [&field](double v) { field = v; }};
 }
 
+/// `v` rounded to an integer of type Int; hmap::Error naming the parameter when it is not finite
+/// or out of Int's range (a cast would wrap: 4294967696 would silently become 400).
+template <typename Int>
+Int checked_integer(const std::string& name, double v) {
+  const double r = std::round(v);
+  // [lowest, 2^digits): both bounds exact in a double, so the cast below is defined.
+  if (!(r >= static_cast<double>(std::numeric_limits<Int>::lowest()) &&
+        r < std::ldexp(1.0, std::numeric_limits<Int>::digits))) {
+    char number[32];
+    const auto end = std::to_chars(number, number + sizeof number, v).ptr;  // shortest exact
+    std::ostringstream message;
+    message << "parameter " << name << " = " << std::string_view(number, static_cast<std::size_t>(end - number))
+            << " must be an integer in [" << +std::numeric_limits<Int>::lowest() << ", "
+            << +std::numeric_limits<Int>::max() << "]";
+    throw Error(message.str());
+  }
+  return static_cast<Int>(r);
+}
+
 template <typename Int>
 ParamRef ref_int(std::string name, std::string unit, std::string description, Int& field) {
-  return {std::move(name), std::move(unit), std::move(description),
-          [&field] { return static_cast<double>(field); },
-          [&field](double v) { field = static_cast<Int>(std::llround(v)); }};
+  return {name, std::move(unit), std::move(description), [&field] { return static_cast<double>(field); },
+          [&field, name](double v) { field = checked_integer<Int>(name, v); }};
 }
 
 }  // namespace
@@ -61,7 +82,10 @@ std::vector<ParamRef> param_refs(Params& p) {
                   m.density_threshold));
   r.push_back({"map.free_space", "enum", "0 = ray tracing and extrusion, 1 = none",
                [&m] { return static_cast<double>(m.free_space); },
-               [&m](double v) { m.free_space = static_cast<FreeSpaceMode>(std::llround(v)); }});
+               [&m](double v) {
+                 m.free_space = static_cast<FreeSpaceMode>(
+                     checked_integer<std::underlying_type_t<FreeSpaceMode>>("map.free_space", v));
+               }});
   r.push_back(ref("map.free_unite_gap", "m", "free bands of one cell closer than this unite",
                   m.free_unite_gap));
   auto& g = p.ground;

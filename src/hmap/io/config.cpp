@@ -32,14 +32,21 @@ std::string known_names(const std::vector<ParamRef>& refs) {
   return s;
 }
 
+/// Parameter names are "section.name": sections nest no deeper than this. The bound also stops
+/// a recursive alias (`a: &x {b: *x}`, a map that holds itself) from recursing forever.
+constexpr int kMaxNesting = 4;
+
 void apply_node(const std::filesystem::path& path, const std::string& prefix, const YAML::Node& node,
-                std::vector<ParamRef>& refs) {
+                std::vector<ParamRef>& refs, int depth) {
   for (const auto& entry : node) {
     const std::string key = entry.first.as<std::string>();
     const std::string name = prefix.empty() ? key : prefix + "." + key;
     const std::string line = "line " + std::to_string(entry.first.Mark().line + 1);
     if (entry.second.IsMap()) {
-      apply_node(path, name, entry.second, refs);
+      if (depth + 1 >= kMaxNesting) {
+        throw InputError(path.string(), line, "'" + name + "' nests sections too deep (parameters are 'section.name')");
+      }
+      apply_node(path, name, entry.second, refs, depth + 1);
       continue;
     }
     if (name == "preset") continue;  // handled first
@@ -71,7 +78,7 @@ void apply_config_file(const std::filesystem::path& path, Params& params) {
   try {
     if (const auto p = root["preset"]; p && p.IsScalar()) params = preset(p.Scalar());
     auto refs = param_refs(params);
-    apply_node(path, "", root, refs);
+    apply_node(path, "", root, refs, 0);
   } catch (const InputError&) {
     throw;
   } catch (const YAML::Exception& e) {

@@ -280,7 +280,11 @@ HMap map_from_params(const std::string& name, std::span<const unsigned char> tex
     if (it == json.end()) throw fail("parameter \"" + r.name + "\" is missing");
     if (!it->is_number()) throw fail("parameter \"" + r.name + "\" is not a number");
     const double value = it->get<double>();
-    r.set(value);
+    try {
+      r.set(value);
+    } catch (const Error& e) {  // an integer parameter out of its type's range
+      throw fail(e.what());
+    }
     // Integer and enum parameters round on set: a value they cannot hold does not read back.
     if (!std::isfinite(value) || r.get() != value) {
       throw fail("parameter \"" + r.name + "\" = " + it->dump() + " is not a value it can take");
@@ -288,7 +292,8 @@ HMap map_from_params(const std::string& name, std::span<const unsigned char> tex
     ++known_keys;
   }
   if (json.size() != known_keys) {
-    for (const auto& [key, value] : json.items()) {
+    for (const auto& item : json.items()) {
+      const std::string& key = item.key();  // a plain name: clang 14 cannot capture a structured binding
       if (key == "format" || key == "tile_size") continue;
       Params scratch;
       const auto refs = param_refs(scratch);

@@ -35,7 +35,9 @@ void ScanHVoxelizer::index_points(std::span<const Point3f> points_sensor, const 
   const double cell = params_.cell_size;
   const Eigen::Vector3d origin = T_map_sensor.translation();
   out.origin_map = origin;
-  if (std::abs(origin.x() / cell) > 1e9 || std::abs(origin.y() / cell) > 1e9) {
+  // Negated so that NaN fails too: a non-finite pose would make every cell key undefined.
+  if (!T_map_sensor.matrix().allFinite()) throw Error("scan pose is not finite");
+  if (!(std::abs(origin.x() / cell) <= 1e9) || !(std::abs(origin.y() / cell) <= 1e9)) {
     throw Error("scan pose is too far from the map origin (beyond 10^9 cells)");
   }
   window_.center = {static_cast<std::int32_t>(std::floor(origin.x() / cell)),
@@ -65,10 +67,16 @@ void ScanHVoxelizer::index_points(std::span<const Point3f> points_sensor, const 
       }
       // 2D indexing in the gravity-aligned map frame (convertToMapIndex, withinMapBounds).
       const Eigen::Vector3d p_map = R * p_sensor.cast<double>() + origin;
-      const CellKey key{static_cast<std::int32_t>(std::floor(p_map.x() / cell)),
-                        static_cast<std::int32_t>(std::floor(p_map.y() / cell))};
-      // Outside the window only through float rounding at the range limit.
-      point_window_[k] = window_.contains(key) ? static_cast<std::uint32_t>(window_.index(key)) : kOutOfRange;
+      const double fi = std::floor(p_map.x() / cell);
+      const double fj = std::floor(p_map.y() / cell);
+      // Outside the window only through float rounding at the range limit, or a pose whose
+      // linear part is not a rotation; tested before the cast, which would overflow far out.
+      if (!(std::abs(fi - window_.center.i) <= window_.half && std::abs(fj - window_.center.j) <= window_.half)) {
+        point_window_[k] = kOutOfRange;
+        continue;
+      }
+      const CellKey key{static_cast<std::int32_t>(fi), static_cast<std::int32_t>(fj)};
+      point_window_[k] = static_cast<std::uint32_t>(window_.index(key));
       point_z_[k] = static_cast<float>(p_map.z());
     }
   });

@@ -238,7 +238,13 @@ VoxelMap decode_binary(std::span<const std::uint8_t> b, const std::string& sourc
   VoxelKey previous;
   for (std::uint64_t r = 0; r < n; ++r) {
     for (auto& k : key) {
-      k += unzigzag(in.varint());
+      // |k| < 2^31: a delta beyond ±2^33 leaves the 32-bit range anyway, and adding it could
+      // overflow 64 bits (found by fuzzing: fuzz/regressions/pvox_binary/).
+      const std::int64_t delta = unzigzag(in.varint());
+      if (delta < -(std::int64_t{1} << 33) || delta > (std::int64_t{1} << 33)) {
+        in.fail("a voxel key outside the 32-bit range");
+      }
+      k += delta;
       if (k < INT32_MIN || k > INT32_MAX) in.fail("a voxel key outside the 32-bit range");
     }
     const VoxelKey vk{static_cast<std::int32_t>(key[0]), static_cast<std::int32_t>(key[1]), static_cast<std::int32_t>(key[2])};

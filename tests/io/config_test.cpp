@@ -1,0 +1,61 @@
+// Parameter files on bad input (the cases the config fuzz target found are kept here too, in
+// fuzz/regressions/config/).
+#include "hmap/io/config.hpp"
+
+#include <gtest/gtest.h>
+
+#include "hmap/core/params.hpp"
+#include "io/io_test_util.hpp"
+
+namespace hmap {
+namespace {
+
+class ConfigTest : public test::IoTest {
+ protected:
+  /// The message of the InputError that applying `yaml` throws ("" when it is accepted).
+  std::string error(std::string_view yaml) {
+    Params params;
+    try {
+      apply_config_file(write("p.yaml", yaml), params);
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    return "";
+  }
+};
+
+TEST_F(ConfigTest, ReadsNestedAndFlatNames) {
+  Params params;
+  apply_config_file(write("p.yaml", "preset: indoor\nmap:\n  cell_size: 0.2\nground.iterations: 12\n"), params);
+  EXPECT_EQ(params.map.cell_size, 0.2);
+  EXPECT_EQ(params.ground.iterations, 12);
+}
+
+TEST_F(ConfigTest, ARecursiveAliasIsRefusedNotRecursedForever) {
+  // Found by fuzzing: a map that holds itself made apply_node recurse until the stack overflowed.
+  const std::string message = error("a: &x {b: *x}\n");
+  EXPECT_NE(message.find("p.yaml: line 1: 'a.b.b.b' nests sections too deep"), std::string::npos) << message;
+}
+
+TEST_F(ConfigTest, YamlErrorsStayOneLine) {
+  // Found by fuzzing: yaml-cpp quotes the offending character in its message, here a control
+  // character after a backslash; it is written as \xNN.
+  const std::string message = error("x: \"\\\x01\"\n");
+  EXPECT_NE(message.find("p.yaml: line 1: YAML syntax error"), std::string::npos) << message;
+  EXPECT_NE(message.find("\\x01"), std::string::npos) << message;
+  EXPECT_EQ(message.find('\x01'), std::string::npos) << message;
+}
+
+TEST_F(ConfigTest, IntegersOutOfRangeAreRefusedByName) {
+  const std::string message = error("ground:\n  iterations: 4294967696\n");
+  EXPECT_NE(message.find("ground.iterations = 4294967696 must be an integer"), std::string::npos) << message;
+  EXPECT_NE(error("map.free_space: 256\n").find("map.free_space"), std::string::npos);
+}
+
+TEST_F(ConfigTest, AbsurdValuesAreRefusedByName) {
+  EXPECT_NE(error("map: {cell_size: 0.000001}\n").find("map.cell_size"), std::string::npos);
+  EXPECT_NE(error("map: {max_range: 1000000000}\n").find("map.max_range"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace hmap
