@@ -3,6 +3,10 @@
 
 BUILD      ?= build
 BUILD_SAN  ?= build-sanitize
+BUILD_FUZZ ?= build-fuzz
+BUILD_TSAN ?= build-tsan
+# Seconds each fuzz target runs in `make fuzz-ci` (the long campaign: fuzz/run_fuzz.sh by hand).
+FUZZ_SECONDS ?= 8
 DATA       ?= $(abspath ../shared/data)
 JOBS       ?= $(shell nproc)
 # A compiler cache speeds rebuilds when one is installed; nothing needs it.
@@ -11,9 +15,9 @@ DEBS := cmake ninja-build g++ pkg-config libeigen3-dev libnanoflann-dev libtbb-d
         nlohmann-json3-dev libyaml-cpp-dev libzstd-dev liblzf-dev libxxhash-dev libpng-dev \
         liboctomap-dev libgtest-dev libgmock-dev libbenchmark-dev \
         librosbag-dev libsensor-msgs-dev libnav-msgs-dev libtf2-msgs-dev python3-rosbag python3-sensor-msgs \
-        python3-nav-msgs python3-tf2-msgs
+        python3-nav-msgs python3-tf2-msgs clang libclang-rt-14-dev
 
-.PHONY: all deps build demo demo-real test test-sanitize bench clean
+.PHONY: all deps build demo demo-real test test-sanitize bench clean fuzz-ci test-tsan
 
 all: build
 
@@ -57,9 +61,28 @@ test-sanitize: deps
 	cd $(BUILD_SAN) && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 \
 	  UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 ctest --output-on-failure -j $(JOBS)
 
+# Every reader and loader fuzzed (fuzz/): libFuzzer programs built with clang, ASan and UBSan,
+# seeds cut from $(DATA), each run for FUZZ_SECONDS; fails on any crash, leak, hang or memory blow-up.
+fuzz-ci: deps
+	CC=clang CXX=clang++ cmake -S . -B $(BUILD_FUZZ) -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DHMAP_FUZZ=ON \
+	  -DHMAP_BUILD_TESTS=OFF -DHMAP_BUILD_BENCH=OFF -DHMAP_DATA_DIR=$(DATA) $(LAUNCHER)
+	cmake --build $(BUILD_FUZZ) -j $(JOBS) --target fuzz_all
+	fuzz/run_fuzz.sh $(BUILD_FUZZ) $(FUZZ_SECONDS)
+
+# The tests of the code that runs in parallel (TBB: scan binning, ray tracing, merging, the
+# occupancy update, the elevation baseline, the map metrics) under ThreadSanitizer, with TBB
+# replaced by std::thread (tests/reliability/tsan_tbb: Debian's libtbb is not instrumented).
+TSAN_TESTS := maps_tests occupancy_tests baseline_tests eval_tests
+test-tsan: deps
+	cmake -S . -B $(BUILD_TSAN) -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DHMAP_TSAN=ON \
+	  -DHMAP_BUILD_BENCH=OFF -DHMAP_DATA_DIR=$(DATA) $(LAUNCHER)
+	cmake --build $(BUILD_TSAN) -j $(JOBS) --target $(TSAN_TESTS)
+	cd $(BUILD_TSAN) && TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1" \
+	  ctest --output-on-failure -j $(JOBS) -L '^(maps|occupancy|baseline|eval)$$'
+
 bench: build
 	$(BUILD)/bin/hmap bench --kitti $(DATA)/kitti_hdl64_seq16 --cell 0.2 --max-range 50
 	$(BUILD)/bin/hmap_bench
 
 clean:
-	rm -rf $(BUILD) $(BUILD_SAN) out
+	rm -rf $(BUILD) $(BUILD_SAN) $(BUILD_FUZZ) $(BUILD_TSAN) out

@@ -1,0 +1,3 @@
+#pragma once
+// ThreadSanitizer build only: see hmap_tsan_tbb.h.
+#include "hmap_tsan_tbb.h"
