@@ -35,45 +35,10 @@ RgbImage render_top(const HMap& map, const HeightRange& range_in, int max_pixels
                     double margin_m) {
   const MapStats st = map.stats();
   if (st.hvoxels == 0) throw Error("the map is empty, nothing to draw");
-  const HeightRange range = resolve_range(map, range_in);
-  const double x0 = st.bounds.min().x() - margin_m;
-  const double y0 = st.bounds.min().y() - margin_m;
-  const double x1 = st.bounds.max().x() + margin_m;
-  const double y1 = st.bounds.max().y() + margin_m;
-  const double cell = map.cell_size();
   // One pixel per cell, or coarser for large maps.
-  vp.m_per_px = std::max(cell, std::max(x1 - x0, y1 - y0) / max_pixels);
-  vp.x0 = x0;
-  vp.y1 = y1;
-  vp.width = std::max(1, static_cast<int>(std::ceil((x1 - x0) / vp.m_per_px)));
-  vp.height = std::max(1, static_cast<int>(std::ceil((y1 - y0) / vp.m_per_px)));
-  const auto n = static_cast<std::size_t>(vp.width) * static_cast<std::size_t>(vp.height);
-  std::vector<float> top(n, -std::numeric_limits<float>::infinity());
-  std::vector<std::uint8_t> layers(n, 0);
-  map.for_each_column([&](const CellKey& key, const Column& c) {
-    const Eigen::Vector2d xy = map.cell_center(key);
-    const auto x = static_cast<int>(std::floor(vp.px(xy.x())));
-    const auto y = static_cast<int>(std::floor(vp.py(xy.y())));
-    if (x < 0 || y < 0 || x >= vp.width || y >= vp.height) return;
-    const std::size_t k = static_cast<std::size_t>(y) * static_cast<std::size_t>(vp.width) + static_cast<std::size_t>(x);
-    top[k] = std::max(top[k], c[c.size() - 1].z_max);
-    layers[k] = static_cast<std::uint8_t>(std::max<std::size_t>(layers[k], std::min<std::size_t>(c.size(), 255)));
-  });
-  RgbImage img(vp.width, vp.height, 0);
-  for (std::size_t k = 0; k < n; ++k) {
-    if (!std::isfinite(top[k])) continue;  // unknown: black
-    std::uint8_t r = 0, g = 0, b = 0;
-    height_colour((top[k] - range.z_low) / (range.z_high - range.z_low), r, g, b);
-    if (layers[k] > 1) {  // overhangs (several HVoxels in the column) drawn lighter
-      r = static_cast<std::uint8_t>((r + 255) / 2);
-      g = static_cast<std::uint8_t>((g + 255) / 2);
-      b = static_cast<std::uint8_t>((b + 255) / 2);
-    }
-    img.rgb[3 * k] = r;
-    img.rgb[3 * k + 1] = g;
-    img.rgb[3 * k + 2] = b;
-  }
-  return img;
+  vp = viewport_over(st.bounds.min().x() - margin_m, st.bounds.min().y() - margin_m, st.bounds.max().x() + margin_m,
+                     st.bounds.max().y() + margin_m, map.cell_size(), max_pixels);
+  return render_top_in(map, range_in, vp);
 }
 
 RgbImage render_oblique(const HMap& map, const HeightRange& range_in, int max_pixels) {
