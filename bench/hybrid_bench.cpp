@@ -3,37 +3,14 @@
 
 #include <benchmark/benchmark.h>
 
-#include <cstdlib>
-#include <filesystem>
-
 #include "hmap/io/kitti.hpp"
 #include "hmap/occupancy/hybrid_mapper.hpp"
+#include "bench_data.hpp"
 
 namespace {
 
-std::filesystem::path data_dir() {
-  if (const char* env = std::getenv("HMAP_DATA_DIR"); env != nullptr && *env != '\0') return env;
-  return HMAP_DEFAULT_DATA_DIR;
-}
-
-const std::vector<hmap::PointCloud>& hdl64_scans() {
-  static const std::vector<hmap::PointCloud> scans = [] {
-    std::vector<hmap::PointCloud> out;
-    const auto dir = data_dir() / "kitti_hdl64_seq16";
-    if (!std::filesystem::exists(dir)) return out;
-    const auto seq = hmap::open_kitti_sequence(dir);
-    for (const auto& p : seq.scan_paths) out.push_back(hmap::read_kitti_bin(p));
-    return out;
-  }();
-  return scans;
-}
-
-hmap::Params hdl64_params() {
-  hmap::Params p = hmap::outdoor_preset();
-  p.map.cell_size = 0.2;
-  p.map.max_range = 50.0;
-  return p;
-}
+using hmap::bench::hdl64_params;
+using hmap::bench::hdl64_scans;
 
 // Ground tree update + 2D grid update of one scan, after its HMAP update (not timed). The
 // sequence has no poses: every scan is taken at the origin, as in BM_IntegrateHdl64.

@@ -3,36 +3,16 @@
 
 #include <benchmark/benchmark.h>
 
-#include <cstdlib>
-#include <filesystem>
-
 #include "hmap/io/kitti.hpp"
 #include "hmap/maps/mapper.hpp"
+#include "bench_data.hpp"
 
 namespace {
 
-std::filesystem::path data_dir() {
-  if (const char* env = std::getenv("HMAP_DATA_DIR"); env != nullptr && *env != '\0') return env;
-  return HMAP_DEFAULT_DATA_DIR;
-}
-
-/// The 16 HDL-64 scans of kitti_hdl64_seq16, read once.
-const std::vector<hmap::PointCloud>& hdl64_scans() {
-  static const std::vector<hmap::PointCloud> scans = [] {
-    std::vector<hmap::PointCloud> out;
-    const auto dir = data_dir() / "kitti_hdl64_seq16";
-    if (!std::filesystem::exists(dir)) return out;
-    const auto seq = hmap::open_kitti_sequence(dir);
-    for (const auto& p : seq.scan_paths) out.push_back(hmap::read_kitti_bin(p));
-    return out;
-  }();
-  return scans;
-}
+using hmap::bench::hdl64_scans;
 
 hmap::Params hdl64_params(hmap::FreeSpaceMode mode) {
-  hmap::Params p = hmap::outdoor_preset();
-  p.map.cell_size = 0.2;
-  p.map.max_range = 50.0;
+  hmap::Params p = hmap::bench::hdl64_params();
   p.map.free_space = mode;
   return p;
 }

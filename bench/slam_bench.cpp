@@ -4,47 +4,21 @@
 
 #include <benchmark/benchmark.h>
 
-#include <cstdlib>
-#include <filesystem>
-
 #include "hmap/io/kitti.hpp"
 #include "hmap/slam/hmap_slam.hpp"
+#include "bench_data.hpp"
 
 namespace {
-
-std::filesystem::path slam_data_dir() {
-  if (const char* env = std::getenv("HMAP_DATA_DIR"); env != nullptr && *env != '\0') return env;
-  return HMAP_DEFAULT_DATA_DIR;
-}
-
-const std::vector<hmap::PointCloud>& seq16_scans() {
-  static const std::vector<hmap::PointCloud> scans = [] {
-    std::vector<hmap::PointCloud> out;
-    const auto dir = slam_data_dir() / "kitti_hdl64_seq16";
-    if (!std::filesystem::exists(dir)) return out;
-    const auto seq = hmap::open_kitti_sequence(dir);
-    for (const auto& p : seq.scan_paths) out.push_back(hmap::read_kitti_bin(p));
-    return out;
-  }();
-  return scans;
-}
-
-hmap::Params seq16_params() {
-  hmap::Params p = hmap::outdoor_preset();
-  p.map.cell_size = 0.2;
-  p.map.max_range = 50.0;
-  return p;
-}
 
 // The last scan matched against the map SLAM built from the 15 before it (HVoxelisation of the
 // scan in its level frame included, map update not).
 void BM_SlamMatchHdl64(benchmark::State& state) {
-  const auto& scans = seq16_scans();
+  const auto& scans = hmap::bench::hdl64_scans();
   if (scans.size() < 2) {
     state.SkipWithError("kitti_hdl64_seq16 is absent: set HMAP_DATA_DIR");
     return;
   }
-  const hmap::Params p = seq16_params();
+  const hmap::Params p = hmap::bench::hdl64_params();
   hmap::slam::HmapSlam slam(p);
   for (std::size_t k = 0; k + 1 < scans.size(); ++k) slam.process(scans[k], {});
   const hmap::slam::PlanarPose guess = slam.predict();
@@ -66,14 +40,14 @@ BENCHMARK(BM_SlamMatchHdl64)->Unit(benchmark::kMillisecond);
 
 // Whole SLAM steps over the 16 scans, map rebuilt each pass: matching plus map update per scan.
 void BM_SlamStepHdl64(benchmark::State& state) {
-  const auto& scans = seq16_scans();
+  const auto& scans = hmap::bench::hdl64_scans();
   if (scans.empty()) {
     state.SkipWithError("kitti_hdl64_seq16 is absent: set HMAP_DATA_DIR");
     return;
   }
   std::size_t steps = 0;
   for (auto _ : state) {
-    hmap::slam::HmapSlam slam(seq16_params());
+    hmap::slam::HmapSlam slam(hmap::bench::hdl64_params());
     for (const auto& scan : scans) slam.process(scan, {});
     steps += scans.size();
   }
