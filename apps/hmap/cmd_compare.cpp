@@ -73,7 +73,7 @@ HMap octomap_as_hmap(const octomap::OcTree& tree, const Params& params) {
   }
   for (auto& [key, spans] : columns) {
     std::sort(spans.begin(), spans.end());
-    Column& column = map.column_for_update(key);
+    TileColumn column = map.column_for_update(key);
     std::pair<float, float> run = spans.front();
     const auto flush = [&] {
       const float count = std::round((run.second - run.first) / static_cast<float>(cell));
@@ -109,11 +109,11 @@ HMap elevation_display(const ElevationMap& elevation) {
 HMap cut_above(const HMap& map, double z_cut) {
   HMap out(map.params());
   const auto cut = static_cast<float>(z_cut);
-  map.for_each_column([&](const CellKey& key, const Column& c) {
+  map.for_each_column([&](const CellKey& key, const ColumnView& c) {
     bool any = false;
     for (const HVoxel& v : c) any = any || v.z_min <= cut;
     if (!any) return;
-    Column& column = out.column_for_update(key);
+    TileColumn column = out.column_for_update(key);
     for (const HVoxel& v : c) {
       if (v.z_min > cut) break;
       HVoxel clipped = v;

@@ -46,7 +46,7 @@ void export_pgm(const HMap& map, const ExportOptions& o) {
     hint = {o.ground_hint[0], o.ground_hint[1], o.ground_hint[2]};
   } else {
     std::vector<float> tops;
-    map.for_each_column([&](const CellKey&, const Column& c) { tops.push_back(c[0].z_max); });
+    map.for_each_column([&](const CellKey&, const ColumnView& c) { tops.push_back(c[0].z_max); });
     std::sort(tops.begin(), tops.end());
     const Eigen::Vector3d mid = st.bounds.center();
     hint = {mid.x(), mid.y(), tops[tops.size() / 5] + 0.5};  // above the low fifth of the lowest tops

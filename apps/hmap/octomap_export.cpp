@@ -50,7 +50,7 @@ std::size_t write_octomap_bt(const std::filesystem::path& path, const HMap& map)
   const double res = map.cell_size();
   octomap::OcTree tree(res);
   std::size_t leaves = 0;
-  map.for_each_column([&](const CellKey& key, const Column& column) {
+  map.for_each_column([&](const CellKey& key, const ColumnView& column) {
     const Eigen::Vector2d xy = map.cell_center(key);
     for (const HVoxel& v : column) {
       // Leaves whose vertical extent meets [z_min, z_max]: centres every res from the first one.

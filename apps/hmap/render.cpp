@@ -21,7 +21,7 @@ void height_colour(double t, std::uint8_t& r, std::uint8_t& g, std::uint8_t& b) 
 HeightRange resolve_range(const HMap& map, HeightRange range) {
   if (std::isnan(range.z_low) || std::isnan(range.z_high)) {
     std::vector<float> tops;
-    map.for_each_column([&](const CellKey&, const Column& c) { tops.push_back(c[c.size() - 1].z_max); });
+    map.for_each_column([&](const CellKey&, const ColumnView& c) { tops.push_back(c[c.size() - 1].z_max); });
     if (tops.empty()) return {0.0, 1.0};
     std::sort(tops.begin(), tops.end());
     if (std::isnan(range.z_low)) range.z_low = tops[tops.size() * 2 / 100];
@@ -80,7 +80,7 @@ RgbImage render_oblique(const HMap& map, const HeightRange& range_in, int max_pi
   std::vector<float> zbuf(static_cast<std::size_t>(w) * static_cast<std::size_t>(h), std::numeric_limits<float>::infinity());
   const double half = map.cell_size() / 2.0;
   const int bar = std::max(1, static_cast<int>(std::lround(map.cell_size() * px_per_m)));
-  map.for_each_column([&](const CellKey& key, const Column& c) {
+  map.for_each_column([&](const CellKey& key, const ColumnView& c) {
     const Eigen::Vector2d xy = map.cell_center(key);
     for (const HVoxel& hv : c) {
       // Sample the bar from z_min to z_max at about one pixel per step.
@@ -274,7 +274,7 @@ RgbImage render_top_in(const HMap& map, const HeightRange& range_in, const TopVi
   const auto n = static_cast<std::size_t>(vp.width) * static_cast<std::size_t>(vp.height);
   std::vector<float> top(n, -std::numeric_limits<float>::infinity());
   std::vector<std::uint8_t> layers(n, 0);
-  map.for_each_column([&](const CellKey& key, const Column& c) {
+  map.for_each_column([&](const CellKey& key, const ColumnView& c) {
     if (c.empty()) return;
     const Eigen::Vector2d xy = map.cell_center(key);
     const auto x = static_cast<int>(std::floor(vp.px(xy.x())));

@@ -111,10 +111,9 @@ TEST(ElevationOccupancyTest, AsHMapRoundTrip) {
   EXPECT_EQ(h.stats().cells, 3U);
   EXPECT_EQ(h.stats().hvoxels, 3U);
   map.for_each_cell([&](const CellKey& key, const ElevationCell& c) {
-    const Column* column = h.column(key);
-    ASSERT_NE(column, nullptr);
-    ASSERT_EQ(column->size(), 1U);
-    const HVoxel& v = (*column)[0];
+    const ColumnView column = h.column(key);
+    ASSERT_EQ(column.size(), 1U);
+    const HVoxel& v = column[0];
     EXPECT_EQ(v.z_min, c.elevation);
     EXPECT_EQ(v.z_max, c.elevation);
     EXPECT_EQ(v.count, static_cast<float>(c.points));

@@ -53,7 +53,7 @@ void cover(HMap& map, const std::set<Voxel>& voxels, double h) {
   for (const auto& [i, j, l] : voxels) columns[{i, j}].push_back(l);  // sorted by the set
   const double eps = 0.01 * h;
   for (const auto& [ij, ls] : columns) {
-    Column& column = map.column_for_update(CellKey{ij.first, ij.second});
+    TileColumn column = map.column_for_update(CellKey{ij.first, ij.second});
     std::size_t a = 0;
     while (a < ls.size()) {
       std::size_t b = a;
@@ -69,7 +69,7 @@ void cover(HMap& map, const std::set<Voxel>& voxels, double h) {
 OccupancyScores occupancy_twin(const HMap& map, const PointCloud& truth, double h, int k) {
   const std::set<Voxel> truth_voxels = voxelize(map, truth, h);
   std::set<Voxel> map_voxels;
-  map.for_each_column([&](const CellKey& key, const Column& column) {
+  map.for_each_column([&](const CellKey& key, const ColumnView& column) {
     for (const HVoxel& v : column) {
       for (auto l = static_cast<long>(std::floor(v.z_min / h)); l <= static_cast<long>(std::floor(v.z_max / h)); ++l) {
         map_voxels.insert({key.i, key.j, l});
@@ -98,7 +98,7 @@ HMap random_map(std::mt19937& gen) {
   std::uniform_real_distribution<float> gap(0.05F, 0.6F);
   std::uniform_real_distribution<float> len(0.0F, 0.8F);
   for (int c = 0; c < 150; ++c) {
-    Column& column = map.column_for_update(CellKey{cell(gen), cell(gen)});
+    TileColumn column = map.column_for_update(CellKey{cell(gen), cell(gen)});
     if (!column.empty()) continue;
     float z = -0.6F + gap(gen);
     for (int n = 0; n < 3; ++n) {

@@ -217,7 +217,7 @@ HMap mapped_room() {
 HMap handmade_map() {
   HMap map(test_params());
   const auto put = [&map](CellKey key, std::vector<HVoxel> hvoxels) {
-    Column& c = map.column_for_update(key);
+    TileColumn c = map.column_for_update(key);
     for (const HVoxel& v : hvoxels) c.push_back(v);
   };
   put({0, 0}, {{0.0F, 0.2F, 12.0F, 0.7F}});
@@ -247,17 +247,16 @@ void expect_same_params(const Params& a, const Params& b) {
 void expect_same_map(const HMap& expected, const HMap& actual) {
   expect_same_params(expected.params(), actual.params());
   std::size_t columns = 0;
-  expected.for_each_column([&](const CellKey& key, const Column& c) {
+  expected.for_each_column([&](const CellKey& key, const ColumnView& c) {
     ++columns;
-    const Column* other = actual.column(key);
-    ASSERT_NE(other, nullptr) << key.i << ", " << key.j;
-    ASSERT_EQ(other->size(), c.size()) << key.i << ", " << key.j;
+    const ColumnView other = actual.column(key);
+    ASSERT_EQ(other.size(), c.size()) << key.i << ", " << key.j;
     for (std::size_t k = 0; k < c.size(); ++k) {
-      EXPECT_TRUE(same_bits(c[k], (*other)[k])) << key.i << ", " << key.j << " #" << k;
+      EXPECT_TRUE(same_bits(c[k], other[k])) << key.i << ", " << key.j << " #" << k;
     }
   });
   std::size_t actual_columns = 0;
-  actual.for_each_column([&](const CellKey&, const Column& c) {
+  actual.for_each_column([&](const CellKey&, const ColumnView& c) {
     ++actual_columns;
     EXPECT_TRUE(c.is_valid());
   });
@@ -273,7 +272,7 @@ void expect_same_map(const HMap& expected, const HMap& actual) {
   }
   std::size_t nonempty_tiles = 0;  // the file stores no empty tile
   expected.for_each_tile([&](const CellKey&, const HMap::Tile& t) {
-    nonempty_tiles += std::any_of(t.cells.begin(), t.cells.end(), [](const Column& c) { return !c.empty(); });
+    nonempty_tiles += t.empty() ? 0 : 1;
   });
   EXPECT_EQ(sa.tiles, nonempty_tiles);
 }
@@ -315,7 +314,7 @@ TEST_F(HMapFileTest, MappedRoomRoundTripsExactly) {
   const HMap map = mapped_room();
   ASSERT_GT(map.stats().hvoxels, 1000U);
   bool several = false;
-  map.for_each_column([&](const CellKey&, const Column& c) { several = several || c.size() > 1; });
+  map.for_each_column([&](const CellKey&, const ColumnView& c) { several = several || c.size() > 1; });
   EXPECT_TRUE(several) << "the table gives columns of two HVoxels";
   save_hmap(dir_ / "room.hmap", map);
   const HMap loaded = load_hmap(dir_ / "room.hmap");
@@ -330,9 +329,10 @@ TEST_F(HMapFileTest, NegativeKeysAndTallColumnsRoundTrip) {
   save_hmap(dir_ / "hand.hmap", map);
   const HMap loaded = load_hmap(dir_ / "hand.hmap");
   expect_same_map(map, loaded);
-  EXPECT_EQ(loaded.column({3, 3})->size(), 40U);
-  EXPECT_TRUE(std::signbit(loaded.column({15, -16})->hvoxels()[0].z_min)) << "-0 kept bit for bit";
-  EXPECT_EQ(loaded.column(CellKey{1000, 1000}), nullptr) << "the empty tile is not stored";
+  EXPECT_EQ(loaded.column({3, 3}).size(), 40U);
+  EXPECT_TRUE(std::signbit(loaded.column({15, -16}).hvoxels()[0].z_min)) << "-0 kept bit for bit";
+  EXPECT_EQ(loaded.find_tile(HMap::tile_of({1000, 1000})), nullptr) << "the empty tile is not stored";
+  EXPECT_NE(map.find_tile(HMap::tile_of({1000, 1000})), nullptr) << "(it exists in the saved map)";
 }
 
 TEST_F(HMapFileTest, EmptyMapRoundTrips) {
@@ -373,7 +373,8 @@ TEST_F(HMapFileTest, LayoutIsAsDocumented) {
   map.for_each_tile([&](const CellKey&, const HMap::Tile& tile) {
     std::uint64_t tile_bytes = 8;
     bool stored = false;
-    for (const Column& c : tile.cells) {
+    for (int local = 0; local < HMap::kTileCells; ++local) {
+      const ColumnView c = tile.column(local);
       tile_bytes += (c.size() < 128 ? 1 : 2) + 16 * c.size();
       stored = stored || !c.empty();
     }
@@ -388,12 +389,11 @@ TEST_F(HMapFileTest, HandCraftedFileLoads) {
   const HMap map = load_hmap(dir_ / "c.hmap");
   EXPECT_EQ(map.stats().hvoxels, 4U);
   EXPECT_EQ(map.stats().tiles, 2U);
-  const Column* c = map.column(HMap::key_in_tile({-1, 0}, 0));
-  ASSERT_NE(c, nullptr);
-  ASSERT_EQ(c->size(), 2U);
-  EXPECT_EQ((*c)[1], (HVoxel{1.0F, 1.0F, 1.0F, 0.1F}));
-  EXPECT_EQ(map.column(HMap::key_in_tile({-1, 0}, HMap::kTileCells - 1))->hvoxels()[0].z_min, -2.0F);
-  EXPECT_EQ(map.column(HMap::key_in_tile({0, -3}, 17))->hvoxels()[0].z_max, 6.0F);
+  const ColumnView c = map.column(HMap::key_in_tile({-1, 0}, 0));
+  ASSERT_EQ(c.size(), 2U);
+  EXPECT_EQ(c[1], (HVoxel{1.0F, 1.0F, 1.0F, 0.1F}));
+  EXPECT_EQ(map.column(HMap::key_in_tile({-1, 0}, HMap::kTileCells - 1)).hvoxels()[0].z_min, -2.0F);
+  EXPECT_EQ(map.column(HMap::key_in_tile({0, -3}, 17)).hvoxels()[0].z_max, 6.0F);
 
   // A frame without a content size, several blocks, also loads.
   FileParts p = parts_with_payload(payload_of(kValidTiles));
@@ -406,7 +406,22 @@ TEST_F(HMapFileTest, HandCraftedFileLoads) {
   p.payload_size = big.size();
   p.compressed = raw_zstd_frame(big, false);
   write_bytes(dir_ / "d.hmap", assemble(p));
-  EXPECT_EQ(load_hmap(dir_ / "d.hmap").column({0, 5})->size(), 20000U);
+  EXPECT_EQ(load_hmap(dir_ / "d.hmap").column({0, 5}).size(), 20000U);
+
+  // A tile holds at most 65535 HVoxels (its columns are packed with 16-bit offsets): two columns
+  // of 40000 are refused by name, not wrapped around.
+  TileSpec crowded{0, 0, {{5, tall.cells[0].second}, {6, tall.cells[0].second}}};
+  for (auto& cell : crowded.cells) cell.second.resize(40000, cell.second.back());
+  for (std::size_t column = 0; column < 2; ++column) {
+    for (int k = 20000; k < 40000; ++k) {
+      const auto z = static_cast<float>(2 * k);
+      crowded.cells[column].second[static_cast<std::size_t>(k)] = {z, z + 1.0F, 1.0F, 0.5F};
+    }
+  }
+  const std::string crowded_payload = payload_of({crowded});
+  p.payload_size = crowded_payload.size();
+  p.compressed = raw_zstd_frame(crowded_payload, false);
+  EXPECT_TRUE(rejected(dir_ / "e.hmap", assemble(p), "tile (0, 0) holds more than 65535 HVoxels"));
 }
 
 // A uniform map compresses far beyond 64:1, so the reader bounds memory by decoding in blocks
@@ -435,10 +450,13 @@ TEST_F(HMapFileTest, SavingTwiceGivesIdenticalBytes) {
 
   // The same columns inserted in another order (another hash table layout): the same bytes.
   HMap copy(map.params());
-  std::vector<std::pair<CellKey, const Column*>> columns;
-  map.for_each_column([&](const CellKey& k, const Column& c) { columns.emplace_back(k, &c); });
+  std::vector<std::pair<CellKey, ColumnView>> columns;
+  map.for_each_column([&](const CellKey& k, const ColumnView& c) { columns.emplace_back(k, c); });
   std::reverse(columns.begin(), columns.end());
-  for (const auto& [key, c] : columns) copy.column_for_update(key) = *c;
+  for (const auto& [key, c] : columns) {
+    TileColumn into = copy.column_for_update(key);
+    for (const HVoxel& v : c) into.push_back(v);
+  }
   save_hmap(dir_ / "c.hmap", copy);
   EXPECT_EQ(read_bytes(dir_ / "a.hmap"), read_bytes(dir_ / "c.hmap"));
 }
@@ -676,7 +694,7 @@ TEST_F(HMapFileTest, BadPayloadsAreRejected) {
                        "tile keys"));
   // The extreme keys themselves are fine.
   write_bytes(path, file_of({{-kLimit, kLimit - 1, {{HMap::kTileCells - 1, {{0.0F, 1.0F, 1.0F, 0.5F}}}}}}));
-  EXPECT_NE(load_hmap(path).column(HMap::key_in_tile({-kLimit, kLimit - 1}, HMap::kTileCells - 1)), nullptr);
+  EXPECT_FALSE(load_hmap(path).column(HMap::key_in_tile({-kLimit, kLimit - 1}, HMap::kTileCells - 1)).empty());
 
   // Trailing bytes inside the payload, and after the zstd frame.
   const std::string valid = payload_of(kValidTiles);

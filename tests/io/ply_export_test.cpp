@@ -104,7 +104,7 @@ HMap box_map() {
   p.map.cell_size = 0.5;
   HMap map(p);
   const auto put = [&map](CellKey key, std::vector<HVoxel> hvoxels) {
-    Column& c = map.column_for_update(key);
+    TileColumn c = map.column_for_update(key);
     for (const HVoxel& v : hvoxels) c.push_back(v);
   };
   put({0, 0}, {{0.0F, 1.0F, 10.0F, 0.9F}, {2.0F, 2.0F, 1.0F, 0.1F}});  // the second is flat
@@ -143,7 +143,7 @@ TEST_F(PlyExportTest, BoxesHaveTheHVoxelsExtents) {
   // 0.1 · cell_size thick, centred).
   std::vector<Extent> expected;
   const double half = 0.5 * map.cell_size();
-  map.for_each_column([&](const CellKey& key, const Column& c) {
+  map.for_each_column([&](const CellKey& key, const ColumnView& c) {
     const Eigen::Vector2d centre = map.cell_center(key);
     for (const HVoxel& v : c) {
       double z0 = v.z_min;

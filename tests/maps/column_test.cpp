@@ -1,7 +1,10 @@
 #include "hmap/maps/column.hpp"
 
+#include "hmap/core/error.hpp"
+
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
 #include <vector>
 
@@ -49,7 +52,6 @@ TEST(ColumnTest, MergeUnitesOverlapAndGapWithinThreshold) {
   EXPECT_FLOAT_EQ(c[0].z_max, 3.0F);
   EXPECT_FLOAT_EQ(c[0].count, 35.0F);
   EXPECT_FLOAT_EQ(c[0].density, hvoxel_density(35.0, 3.0, params()));
-  EXPECT_EQ(c.heap_bytes(), 0U);  // back to the inline HVoxel
 }
 
 TEST(ColumnTest, MergeJustBeyondThresholdStaysApart) {
@@ -89,6 +91,71 @@ TEST(ColumnTest, CopyAndMoveKeepContents) {
   Column assigned;
   assigned = copy;
   EXPECT_EQ(assigned[0], copy[0]);
+}
+
+// The packed tile against 64 standalone columns given the same random edits: merges, erases,
+// inserts at the top, clears; every column and the totals must agree after every step.
+TEST(ColumnTileTest, MatchesStandaloneColumnsUnderRandomEdits) {
+  std::mt19937 rng(11);
+  std::uniform_int_distribution<int> cell(0, ColumnTile::kCells - 1);
+  std::uniform_int_distribution<int> op(0, 9);
+  std::uniform_real_distribution<float> z(-3.0F, 3.0F);
+  ColumnTile tile;
+  std::vector<Column> twin(ColumnTile::kCells);
+  EXPECT_TRUE(tile.empty());
+  EXPECT_EQ(tile.heap_bytes(), 0U);
+  for (int step = 0; step < 20000; ++step) {
+    const int local = cell(rng);
+    TileColumn column(tile, local);
+    Column& expected = twin[static_cast<std::size_t>(local)];
+    const int o = op(rng);
+    if (o < 7) {
+      const float a = z(rng);
+      const HVoxel v = hv(a, a + 0.1F, 2);
+      column.merge(v, 0.05F, params());
+      expected.merge(v, 0.05F, params());
+    } else if (o < 9 && !expected.empty()) {
+      const std::size_t first = std::uniform_int_distribution<std::size_t>(0, expected.size() - 1)(rng);
+      column.erase(first, first + 1);
+      expected.erase(first, first + 1);
+    } else if (o == 9 && step % 7 == 0) {
+      column.clear();
+      expected.clear();
+    }
+    ASSERT_EQ(column.size(), expected.size()) << "step " << step;
+    ASSERT_TRUE(std::equal(column.begin(), column.end(), expected.begin())) << "step " << step;
+  }
+  std::size_t total = 0;
+  for (int local = 0; local < ColumnTile::kCells; ++local) {
+    const ColumnView c = tile.column(local);
+    const Column& e = twin[static_cast<std::size_t>(local)];
+    ASSERT_EQ(c.size(), e.size());
+    EXPECT_TRUE(std::equal(c.begin(), c.end(), e.begin()));
+    EXPECT_TRUE(c.is_valid());
+    total += e.size();
+  }
+  EXPECT_EQ(tile.hvoxel_count(), total);
+  EXPECT_GE(tile.heap_bytes(), total * sizeof(HVoxel));
+  // A copy holds the same columns; shrinking keeps them and fits the buffer.
+  ColumnTile copy(tile);
+  copy.shrink_to_fit();
+  EXPECT_EQ(copy.heap_bytes(), total * sizeof(HVoxel) + 16);
+  for (int local = 0; local < ColumnTile::kCells; ++local) {
+    EXPECT_TRUE(std::equal(copy.column(local).begin(), copy.column(local).end(), tile.column(local).begin()));
+  }
+}
+
+TEST(ColumnTileTest, EmptyColumnsAndFullTile) {
+  ColumnTile tile;
+  EXPECT_TRUE(tile.column(5).empty());
+  EXPECT_EQ(tile.column(5).find(0.0F), nullptr);
+  TileColumn last(tile, ColumnTile::kCells - 1);
+  for (std::size_t k = 0; k < ColumnTile::kMaxHVoxels; ++k) last.push_back({float(k), float(k) + 0.5F, 1, 0.1F});
+  EXPECT_EQ(tile.hvoxel_count(), ColumnTile::kMaxHVoxels);
+  EXPECT_TRUE(tile.column(0).empty());
+  EXPECT_THROW(TileColumn(tile, 0).push_back({0, 0, 1, 0.1F}), Error) << "one HVoxel more than a tile holds";
+  EXPECT_EQ(tile.hvoxel_count(), ColumnTile::kMaxHVoxels) << "the tile is unchanged by the refused insert";
+  EXPECT_TRUE(tile.column(0).empty());
 }
 
 TEST(DensityTest, EquationOneByHand) {

@@ -126,7 +126,7 @@ TEST(MapperTest, ColumnsStayValidAndRecoveryCoversHVoxels) {
     m.integrate(room_scan(k < 2, sensor, 50 + k), at(sensor));
   }
   std::size_t hvoxels = 0;
-  m.map().for_each_column([&](const CellKey&, const Column& c) {
+  m.map().for_each_column([&](const CellKey&, const ColumnView& c) {
     EXPECT_TRUE(c.is_valid());
     hvoxels += c.size();
   });

@@ -133,8 +133,7 @@ TEST(HVoxelMetric, LocalMapViewAgreesWithTheMap) {
   view.reset(map, {5, -3}, 20);  // part of the map lies outside: looked up through the map
   for (int i = -45; i <= 45; ++i) {
     for (int j = -45; j <= 45; ++j) {
-      const Column* c = map.column(CellKey{i, j});
-      const auto expected = c != nullptr ? c->hvoxels() : std::span<const HVoxel>{};
+      const auto expected = map.column(CellKey{i, j}).hvoxels();
       const auto got = view.column({i, j});
       ASSERT_EQ(got.size(), expected.size()) << i << " " << j;
       if (!got.empty()) {

@@ -51,7 +51,7 @@ void unite(std::vector<ZRange>& ranges) {
 }
 
 /// Appends the voxels each HVoxel of `column` overlaps: l from ⌊z_min/h⌋ to ⌊z_max/h⌋.
-void append_map_ranges(const Column& column, double voxel_height, std::vector<ZRange>& ranges) {
+void append_map_ranges(const ColumnView& column, double voxel_height, std::vector<ZRange>& ranges) {
   for (const HVoxel& v : column) {
     if (!std::isfinite(v.z_min) || !std::isfinite(v.z_max) || v.z_min > v.z_max) {
       throw Error("map evaluation: the map holds an HVoxel with a non-finite or reversed interval [" +
@@ -67,9 +67,7 @@ void map_ranges_near(const HMap& map, const CellKey& key, int k, double voxel_he
   ranges.clear();
   for (int di = -k; di <= k; ++di) {
     for (int dj = -k; dj <= k; ++dj) {
-      if (const Column* c = map.column(CellKey{key.i + di, key.j + dj}); c != nullptr) {
-        append_map_ranges(*c, voxel_height, ranges);
-      }
+      append_map_ranges(map.column(CellKey{key.i + di, key.j + dj}), voxel_height, ranges);
     }
   }
   unite(ranges);
@@ -133,7 +131,7 @@ OccupancyScores occupancy_from_columns(const HMap& map, const TruthColumns& trut
   }
 
   // Precision: every voxel an HVoxel overlaps, matched if a truth voxel lies within k.
-  map.for_each_column([&](const CellKey& key, const Column& column) {
+  map.for_each_column([&](const CellKey& key, const ColumnView& column) {
     ranges.clear();
     append_map_ranges(column, voxel_height, ranges);
     unite(ranges);
@@ -261,7 +259,7 @@ RecoveredPoints recover_points_capped(const HMap& map, double z_step, std::size_
   }
   RecoveredPoints out;
   const auto cap = static_cast<double>(max_points_per_hvoxel);
-  map.for_each_column([&](const CellKey& key, const Column& column) {
+  map.for_each_column([&](const CellKey& key, const ColumnView& column) {
     const Eigen::Vector2d xy = map.cell_center(key);
     const auto x = static_cast<float>(xy.x());
     const auto y = static_cast<float>(xy.y());

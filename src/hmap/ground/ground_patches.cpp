@@ -282,7 +282,7 @@ class PatchExplorer {
     const double bin_size = params_.elevation_threshold;
     {
       std::map<long long, Bin> bins;
-      for_each_cell(hint.head<2>(), radius, [&](const Eigen::Vector2d& xy, const Column& column) {
+      for_each_cell(hint.head<2>(), radius, [&](const Eigen::Vector2d& xy, const ColumnView& column) {
         if ((xy - hint.head<2>()).norm() > radius) return;
         for (const HVoxel& v : column.hvoxels()) {
           if (v.z_max > hint.z()) continue;
@@ -473,11 +473,11 @@ class PatchExplorer {
 
   void tops_in_band(const CellKey& key, const GroundPatch& reference, double band,
                     std::vector<double>& out) const {
-    const Column* column = map_.column(key);
-    if (column == nullptr || column->empty()) return;
+    const ColumnView column = map_.column(key);
+    if (column.empty()) return;
     const Eigen::Vector2d xy = map_.cell_center(key);
     const double z_ref = reference.height_at(xy.x(), xy.y());
-    for (const HVoxel& v : column->hvoxels()) {
+    for (const HVoxel& v : column.hvoxels()) {
       if (std::abs(v.z_max - z_ref) < band) out.push_back(v.z_max);
     }
   }
@@ -491,8 +491,8 @@ class PatchExplorer {
     if (!first || !last) return;
     for (std::int32_t i = first->i; i <= last->i; ++i) {
       for (std::int32_t j = first->j; j <= last->j; ++j) {
-        const Column* column = map_.column(CellKey{i, j});
-        if (column != nullptr && !column->empty()) f(map_.cell_center({i, j}), *column);
+        const ColumnView column = map_.column(CellKey{i, j});
+        if (!column.empty()) f(map_.cell_center({i, j}), column);
       }
     }
   }

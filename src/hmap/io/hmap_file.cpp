@@ -101,9 +101,7 @@ using TileRef = std::pair<CellKey, const HMap::Tile*>;
 std::vector<TileRef> sorted_nonempty_tiles(const HMap& map) {
   std::vector<TileRef> tiles;
   map.for_each_tile([&tiles](const CellKey& key, const HMap::Tile& tile) {
-    const bool any = std::any_of(tile.cells.begin(), tile.cells.end(),
-                                 [](const Column& c) { return !c.empty(); });
-    if (any) tiles.emplace_back(key, &tile);
+    if (!tile.empty()) tiles.emplace_back(key, &tile);
   });
   std::sort(tiles.begin(), tiles.end(), [](const TileRef& a, const TileRef& b) {
     return a.first.i != b.first.i ? a.first.i < b.first.i : a.first.j < b.first.j;
@@ -113,14 +111,17 @@ std::vector<TileRef> sorted_nonempty_tiles(const HMap& map) {
 
 std::uint64_t tile_bytes(const HMap::Tile& tile) {
   std::uint64_t n = 8;
-  for (const Column& c : tile.cells) n += varint_size(c.size()) + kHVoxelBytes * c.size();
+  for (int local = 0; local < HMap::kTileCells; ++local) {
+    n += varint_size(tile.size(local)) + kHVoxelBytes * tile.size(local);
+  }
   return n;
 }
 
 void append_tile(std::string& out, const CellKey& key, const HMap::Tile& tile) {
   put_u32(out, static_cast<std::uint32_t>(key.i));
   put_u32(out, static_cast<std::uint32_t>(key.j));
-  for (const Column& c : tile.cells) {  // cells are stored in local_index order
+  for (int local = 0; local < HMap::kTileCells; ++local) {  // cells are stored in local_index order
+    const ColumnView c = tile.column(local);
     put_varint(out, c.size());
     for (const HVoxel& v : c) {
       put_f32(out, v.z_min);
@@ -492,6 +493,7 @@ void read_tiles(PayloadReader& in, HMap& map) {
     previous = tile;
 
     bool any = false;
+    std::uint64_t tile_hvoxels = 0;
     for (int local = 0; local < HMap::kTileCells; ++local) {
       const CellKey key = HMap::key_in_tile(tile, local);
       const std::uint64_t cell_at = in.position();
@@ -503,7 +505,12 @@ void read_tiles(PayloadReader& in, HMap& map) {
       }
       if (n == 0) continue;
       any = true;
-      Column& column = map.column_for_update(key);
+      tile_hvoxels += n;
+      if (tile_hvoxels > HMap::Tile::kMaxHVoxels) {
+        throw in.error(cell_at, tile_name + " holds more than " + std::to_string(HMap::Tile::kMaxHVoxels) +
+                                    " HVoxels, the most a tile of the map can hold");
+      }
+      TileColumn column = map.column_for_update(key);
       for (std::uint64_t k = 0; k < n; ++k) {
         const std::uint64_t at = in.position();
         const HVoxel v{in.f32(), in.f32(), in.f32(), in.f32()};  // braces: read left to right

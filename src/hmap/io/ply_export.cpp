@@ -102,7 +102,7 @@ void for_each_box(const HMap& map, F&& f) {
   const double min_height = 0.1 * map.cell_size();  // flat HVoxels would be invisible
   for (const auto& [tile_key, tile] : tiles) {
     for (int local = 0; local < HMap::kTileCells; ++local) {
-      const Column& column = tile->cells[local];
+      const ColumnView column = tile->column(local);
       if (column.empty()) continue;
       const Eigen::Vector2d c = map.cell_center(HMap::key_in_tile(tile_key, local));
       for (const HVoxel& v : column) {

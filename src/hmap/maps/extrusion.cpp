@@ -6,7 +6,8 @@ namespace hmap {
 
 namespace {
 
-void apply_rules(Column& column, const FreeHVoxel& f, const MapParams& p, ExtrusionCounts& counts) {
+template <typename EditableColumn>
+void apply_rules(EditableColumn& column, const FreeHVoxel& f, const MapParams& p, ExtrusionCounts& counts) {
   const auto n_th = static_cast<float>(p.density_threshold);
   std::size_t i = column.lower_bound(f.z_min);
   float free_density = -1.0F;  // eq. (1) for the free HVoxel, computed once it overlaps something
@@ -69,14 +70,15 @@ void apply_rules(Column& column, const FreeHVoxel& f, const MapParams& p, Extrus
 
 }  // namespace
 
-void extrude(Column& column, std::span<const FreeHVoxel> free, const MapParams& p,
+template <typename EditableColumn>
+void extrude(EditableColumn& column, std::span<const FreeHVoxel> free, const MapParams& p,
              ExtrusionCounts& counts) {
   if (column.empty() || free.empty()) return;
   for (const FreeHVoxel& f : free) apply_rules(column, f, p, counts);
   // After the rules: the HVoxels the free space reached that are now under n_th go.
   const auto n_th = static_cast<float>(p.density_threshold);
   for (std::size_t i = 0; i < column.size();) {
-    const HVoxel& v = column[i];
+    const HVoxel v = column[i];
     const bool reached = std::any_of(free.begin(), free.end(), [&](const FreeHVoxel& f) {
       return v.z_min <= f.z_max && v.z_max >= f.z_min;
     });
@@ -88,5 +90,8 @@ void extrude(Column& column, std::span<const FreeHVoxel> free, const MapParams& 
     }
   }
 }
+
+template void extrude(TileColumn&, std::span<const FreeHVoxel>, const MapParams&, ExtrusionCounts&);
+template void extrude(Column&, std::span<const FreeHVoxel>, const MapParams&, ExtrusionCounts&);
 
 }  // namespace hmap

@@ -23,7 +23,12 @@ struct ExtrusionCounts {
 ///  4. a free HVoxel strictly inside an HVoxel: with a smaller density the HVoxel is subdivided
 ///     around it, otherwise it is updated as in rule 2.
 /// Removing part of an HVoxel keeps the count of the part that stays, pro rata of its height.
-void extrude(Column& column, std::span<const FreeHVoxel> free, const MapParams& params,
+/// `column` is a TileColumn (in a map) or a Column (standing alone).
+template <typename EditableColumn>
+void extrude(EditableColumn& column, std::span<const FreeHVoxel> free, const MapParams& params,
              ExtrusionCounts& counts);
+
+extern template void extrude(TileColumn&, std::span<const FreeHVoxel>, const MapParams&, ExtrusionCounts&);
+extern template void extrude(Column&, std::span<const FreeHVoxel>, const MapParams&, ExtrusionCounts&);
 
 }  // namespace hmap

@@ -11,7 +11,7 @@
 
 namespace hmap {
 
-void FreeCell::add(float lo, float hi, float rays, float unite_gap, float join_gap) {
+void FreeCell::add_slow(float lo, float hi, float rays, float unite_gap, float join_gap) {
   // Unite with every interval it overlaps or comes within unite_gap of (they are kept farther
   // apart than that, so the union cannot reach one that [lo, hi] did not).
   std::uint32_t hit = n;

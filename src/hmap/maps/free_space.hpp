@@ -1,6 +1,7 @@
 #pragma once
 // HVoxel ray tracing and free-space computation (section III-C, Alg. 3, Fig. 3).
 
+#include <algorithm>
 #include <array>
 #include <functional>
 #include <span>
@@ -22,7 +23,30 @@ struct alignas(64) FreeCell {  // one cache line: every ray visit touches exactl
   /// `unite_gap` of. When all slots are taken and it meets none, it joins the nearest interval if
   /// closer than `join_gap`, else it is dropped: leaving space unknown is safer than calling a
   /// gap free.
-  void add(float lo, float hi, float rays, float unite_gap, float join_gap);
+  void add(float lo, float hi, float rays, float unite_gap, float join_gap) {
+    // Most visits fall inside or against the one interval of a cell already crossed (what
+    // add_slow does too, without its loop).
+    FreeHVoxel& iv = intervals[0];
+    if (n == 1 && lo <= iv.z_max + unite_gap && hi >= iv.z_min - unite_gap) {
+      iv.z_min = std::min(iv.z_min, lo);
+      iv.z_max = std::max(iv.z_max, hi);
+      iv.rays += rays;
+      return;
+    }
+    if (n == 0) {
+      iv = {lo, hi, rays};
+      n = 1;
+      return;
+    }
+    if (lo >= iv.z_min && hi <= iv.z_max) {
+      iv.rays += rays;
+      return;
+    }
+    add_slow(lo, hi, rays, unite_gap, join_gap);
+  }
+
+ private:
+  void add_slow(float lo, float hi, float rays, float unite_gap, float join_gap);
 };
 
 /// Casts one ray per HVoxel of a scan from the sensor origin and accumulates the free HVoxels.

@@ -20,43 +20,34 @@ Eigen::Vector2d HMap::cell_center(const CellKey& key) const {
   return {(key.i + 0.5) * cell_size(), (key.j + 0.5) * cell_size()};
 }
 
-const Column* HMap::column(const CellKey& key) const {
+ColumnView HMap::column(const CellKey& key) const {
   const Tile* tile = tiles_.find(tile_of(key));
-  return tile != nullptr ? &tile->cells[local_index(key)] : nullptr;
+  return tile != nullptr ? tile->column(local_index(key)) : ColumnView{};
 }
 
-const Column* HMap::column(double x, double y) const {
+ColumnView HMap::column(double x, double y) const {
   const auto key = key_of(x, y);
-  return key ? column(*key) : nullptr;
+  return key ? column(*key) : ColumnView{};
 }
 
-Column* HMap::find_column(const CellKey& key) {
-  Tile* tile = tiles_.find(tile_of(key));
-  return tile != nullptr ? &tile->cells[local_index(key)] : nullptr;
-}
-
-Column& HMap::column_for_update(const CellKey& key) {
-  return tiles_.find_or_create(tile_of(key)).cells[local_index(key)];
+TileColumn HMap::column_for_update(const CellKey& key) {
+  return {tiles_.find_or_create(tile_of(key)), local_index(key)};
 }
 
 const HVoxel* HMap::hvoxel_at(double x, double y, double z) const {
-  const Column* c = column(x, y);
-  return c ? c->find(static_cast<float>(z)) : nullptr;
+  return column(x, y).find(static_cast<float>(z));
 }
 
 bool HMap::empty() const {
   bool empty = true;
-  tiles_.for_each([&](const CellKey&, const Tile& tile) {
-    for (const Column& c : tile.cells) empty = empty && c.empty();
-  });
+  tiles_.for_each([&](const CellKey&, const Tile& tile) { empty = empty && tile.empty(); });
   return empty;
 }
 
 void HMap::prune_empty_tiles() {
-  tiles_.erase_if([](const Tile& tile) {
-    for (const Column& c : tile.cells)
-      if (!c.empty()) return false;
-    return true;
+  tiles_.erase_if([](Tile& tile) {
+    tile.shrink_to_fit();
+    return tile.empty();
   });
 }
 
@@ -64,10 +55,10 @@ MapStats HMap::stats() const {
   MapStats s;
   s.tiles = tiles_.size();
   s.memory_bytes = tiles_.table_bytes() + tiles_.size() * sizeof(Tile);
-  for_each_column([&](const CellKey& key, const Column& c) {
+  tiles_.for_each([&](const CellKey&, const Tile& tile) { s.memory_bytes += tile.heap_bytes(); });
+  for_each_column([&](const CellKey& key, const ColumnView& c) {
     ++s.cells;
     s.hvoxels += c.size();
-    s.memory_bytes += c.heap_bytes();
     const double x0 = key.i * cell_size();
     const double y0 = key.j * cell_size();
     s.bounds.extend(Eigen::Vector3d(x0, y0, c[0].z_min));
@@ -79,7 +70,7 @@ MapStats HMap::stats() const {
 PointCloud recover_points(const HMap& map, double z_step) {
   if (!(z_step > 0.0)) throw Error("recover_points: z_step must be > 0");
   PointCloud points;
-  map.for_each_column([&](const CellKey& key, const Column& c) {
+  map.for_each_column([&](const CellKey& key, const ColumnView& c) {
     const Eigen::Vector2d xy = map.cell_center(key);
     for (const HVoxel& v : c) {
       const double h = v.height();

@@ -32,9 +32,9 @@ class HMap {
   /// Cell keys are kept within ±2^30 so neighbours and tile keys never overflow.
   static constexpr double kMaxKey = 1073741824.0;
 
-  struct Tile {
-    std::array<Column, kTileCells> cells;
-  };
+  /// The columns of kTileSize × kTileSize cells, packed (column.hpp); cell `local_index(key)`.
+  using Tile = ColumnTile;
+  static_assert(ColumnTile::kCells == kTileCells);
 
   /// Validates the parameters (throws hmap::Error).
   explicit HMap(const Params& params);
@@ -47,13 +47,22 @@ class HMap {
   /// Centre of a cell in map coordinates [m].
   [[nodiscard]] Eigen::Vector2d cell_center(const CellKey& key) const;
 
-  /// The column of a cell, or nullptr if nothing was ever stored there. O(1).
-  [[nodiscard]] const Column* column(const CellKey& key) const;
-  [[nodiscard]] const Column* column(double x, double y) const;
-  /// The column of a cell for changing it, or nullptr if its tile was never allocated.
-  [[nodiscard]] Column* find_column(const CellKey& key);
+  /// The column of a cell (empty if nothing was ever stored there). O(1); valid until the map
+  /// changes.
+  [[nodiscard]] ColumnView column(const CellKey& key) const;
+  [[nodiscard]] ColumnView column(double x, double y) const;
+  /// The column of a cell for changing it, or nullopt if its tile was never allocated.
+  /// Columns of one tile share its buffer: threads may change columns of different tiles only.
+  [[nodiscard]] std::optional<TileColumn> find_column(const CellKey& key) {
+    Tile* tile = tiles_.find(tile_of(key));
+    if (tile == nullptr) return std::nullopt;
+    return TileColumn(*tile, local_index(key));
+  }
   /// The column of a cell, its tile allocated on first touch.
-  [[nodiscard]] Column& column_for_update(const CellKey& key);
+  [[nodiscard]] TileColumn column_for_update(const CellKey& key);
+  /// A tile for changing its columns, or nullptr. `tile_key` as in tile_of().
+  [[nodiscard]] Tile* find_tile(const CellKey& tile_key) { return tiles_.find(tile_key); }
+  [[nodiscard]] const Tile* find_tile(const CellKey& tile_key) const { return tiles_.find(tile_key); }
   /// The HVoxel containing (x, y, z), or nullptr. O(1) + O(log n).
   [[nodiscard]] const HVoxel* hvoxel_at(double x, double y, double z) const;
   [[nodiscard]] bool occupied(double x, double y, double z) const {
@@ -64,12 +73,12 @@ class HMap {
   [[nodiscard]] bool empty() const;
   void clear() { tiles_.clear(); }
 
-  /// Calls f(CellKey, const Column&) for every non-empty column, in no particular order.
+  /// Calls f(CellKey, ColumnView) for every non-empty column, in no particular order.
   template <typename F>
   void for_each_column(F&& f) const {
     tiles_.for_each([&](const CellKey& tile_key, const Tile& tile) {
       for (int local = 0; local < kTileCells; ++local) {
-        const Column& c = tile.cells[local];
+        const ColumnView c = tile.column(local);
         if (!c.empty()) f(key_in_tile(tile_key, local), c);
       }
     });
@@ -80,7 +89,7 @@ class HMap {
   void for_each_tile(F&& f) const {
     tiles_.for_each(f);
   }
-  /// Removes tiles whose columns are all empty.
+  /// Removes tiles whose columns are all empty, and trims the others' buffers to fit.
   void prune_empty_tiles();
 
   [[nodiscard]] static CellKey tile_of(const CellKey& key) {

@@ -47,7 +47,7 @@ void Mapper::merge_scan() {
   const MapParams& p = map_.params().map;
   const auto gap = static_cast<float>(p.point_distance_threshold);
   for (const ScanCell& cell : scan_.cells) {
-    Column& column = map_.column_for_update(cell.key);
+    TileColumn column = map_.column_for_update(cell.key);
     for (const HVoxel& v : scan_.hvoxels_of(cell)) column.merge(v, gap, p);
   }
 }
@@ -73,16 +73,24 @@ void Mapper::extrude_free_space(ScanStats& stats) {
   const MapParams& p = map_.params().map;
   const auto& scan_cell_of_window = hvoxelizer_.cell_of_window();
   const auto& free_cells = tracer_.cells();
-  // Each free cell changes only its own column, and no tile is created: cells run in parallel.
+  // Each free cell changes only its own column, and no tile is created; the columns of a tile
+  // share its buffer, so the cells are dealt into stripes by tile and the stripes run in parallel.
+  for (auto& stripe : stripes_) stripe.clear();
+  for (const FreeCell* fc : free_cells) {
+    const CellKey t = HMap::tile_of(fc->key);
+    const auto h = static_cast<std::uint32_t>(t.i) * 0x9E3779B1U ^ static_cast<std::uint32_t>(t.j) * 0x85EBCA77U;
+    stripes_[(h >> 16) % stripes_.size()].push_back(fc);
+  }
   tbb::enumerable_thread_specific<std::vector<FreeHVoxel>> pieces_of_thread;
   tbb::enumerable_thread_specific<ExtrusionCounts> counts_of_thread;
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, free_cells.size(), 512), [&](const auto& range) {
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, stripes_.size(), 1), [&](const auto& range) {
     auto& pieces = pieces_of_thread.local();
     auto& counts = counts_of_thread.local();
-    for (std::size_t k = range.begin(); k != range.end(); ++k) {
-      const FreeCell& free_cell = *free_cells[k];
-      Column* column = map_.find_column(free_cell.key);
-      if (column == nullptr || column->empty()) continue;
+    for (std::size_t s = range.begin(); s != range.end(); ++s) {
+    for (const FreeCell* fc : stripes_[s]) {
+      const FreeCell& free_cell = *fc;
+      std::optional<TileColumn> column = map_.find_column(free_cell.key);
+      if (!column || column->empty()) continue;
       // Within one scan a hit outranks a pass-through, as in OctoMap: the scan's own HVoxels in
       // this cell are not carved by its own rays.
       const std::uint32_t own = scan_cell_of_window[scan_.window.index(free_cell.key)];
@@ -94,6 +102,7 @@ void Mapper::extrude_free_space(ScanStats& stats) {
         free = pieces;
       }
       extrude(*column, free, p, counts);
+    }
     }
   });
   for (const ExtrusionCounts& c : counts_of_thread) {

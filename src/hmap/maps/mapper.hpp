@@ -1,7 +1,9 @@
 #pragma once
 // The HMAP mapping pipeline of section III: a scan and its pose in, the map updated.
 
+#include <array>
 #include <span>
+#include <vector>
 
 #include "hmap/maps/extrusion.hpp"
 #include "hmap/maps/free_space.hpp"
@@ -48,6 +50,7 @@ class Mapper {
   ScanHVoxelizer hvoxelizer_;
   FreeSpaceTracer tracer_;
   ScanHVoxels scan_;
+  std::array<std::vector<const FreeCell*>, 16> stripes_;  // free cells dealt by tile (extrusion)
 };
 
 }  // namespace hmap

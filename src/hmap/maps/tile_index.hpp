@@ -40,7 +40,8 @@ class TileIndex {
     return *tiles_.back();
   }
 
-  /// Removes every tile for which pred(tile) is true, keeping the others' order.
+  /// Removes every tile for which pred(tile) is true, keeping the others' order; pred may
+  /// change the tiles it keeps.
   template <typename Pred>
   void erase_if(Pred pred) {
     std::size_t kept = 0;

@@ -207,7 +207,7 @@ OccupancyGrid occupancy_from_map(const HMap& map, const GroundModel& ground, con
                                  double max_ground_distance) {
   const OccupancyParams& op = params.occupancy;
   OccupancyGrid grid(map.cell_size(), op.clamp_min, op.clamp_max);
-  map.for_each_column([&](const CellKey& key, const Column& column) {
+  map.for_each_column([&](const CellKey& key, const ColumnView& column) {
     const Eigen::Vector2d xy = map.cell_center(key);
     const GroundPatch* patch = ground.nearest(xy.x(), xy.y());
     if (patch == nullptr || (patch->center.head<2>() - xy).norm() > max_ground_distance) return;

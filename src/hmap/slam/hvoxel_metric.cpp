@@ -52,13 +52,11 @@ void LocalMapView::reset(const HMap& map, const CellKey& center, std::int32_t ha
   const CellKey hi = HMap::tile_of({center.i + half_cells, center.j + half_cells});
   tile_min_ = lo;
   tiles_wide_ = std::max(hi.i - lo.i, hi.j - lo.j) + 1;
-  tile_base_.assign(static_cast<std::size_t>(tiles_wide_) * static_cast<std::size_t>(tiles_wide_), nullptr);
+  tiles_.assign(static_cast<std::size_t>(tiles_wide_) * static_cast<std::size_t>(tiles_wide_), nullptr);
   for (std::int32_t ti = 0; ti < tiles_wide_; ++ti) {
     for (std::int32_t tj = 0; tj < tiles_wide_; ++tj) {
-      // column() of a tile's first cell points at cells[0] of that tile (or is null).
-      const CellKey first{(lo.i + ti) * HMap::kTileSize, (lo.j + tj) * HMap::kTileSize};
-      tile_base_[static_cast<std::size_t>(ti) * static_cast<std::size_t>(tiles_wide_) +
-                 static_cast<std::size_t>(tj)] = map.column(first);
+      tiles_[static_cast<std::size_t>(ti) * static_cast<std::size_t>(tiles_wide_) + static_cast<std::size_t>(tj)] =
+          map.find_tile({lo.i + ti, lo.j + tj});
     }
   }
 }
@@ -67,15 +65,12 @@ std::span<const HVoxel> LocalMapView::column(const CellKey& key) const {
   const CellKey t = HMap::tile_of(key);
   const std::int32_t ti = t.i - tile_min_.i;
   const std::int32_t tj = t.j - tile_min_.j;
-  const Column* c = nullptr;
   if (ti >= 0 && tj >= 0 && ti < tiles_wide_ && tj < tiles_wide_) {
-    const Column* base = tile_base_[static_cast<std::size_t>(ti) * static_cast<std::size_t>(tiles_wide_) +
-                                    static_cast<std::size_t>(tj)];
-    if (base != nullptr) c = base + HMap::local_index(key);
-  } else if (map_ != nullptr) {
-    c = map_->column(key);
+    const HMap::Tile* tile =
+        tiles_[static_cast<std::size_t>(ti) * static_cast<std::size_t>(tiles_wide_) + static_cast<std::size_t>(tj)];
+    return tile != nullptr ? tile->column(HMap::local_index(key)).hvoxels() : std::span<const HVoxel>{};
   }
-  return c != nullptr ? c->hvoxels() : std::span<const HVoxel>{};
+  return map_ != nullptr ? map_->column(key).hvoxels() : std::span<const HVoxel>{};
 }
 
 LayerInterpolator::LayerInterpolator(const Params& params)

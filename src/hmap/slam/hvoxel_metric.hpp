@@ -62,7 +62,7 @@ class LocalMapView {
   const HMap* map_ = nullptr;
   CellKey tile_min_;
   std::int32_t tiles_wide_ = 0;
-  std::vector<const Column*> tile_base_;  // column of each tile's first cell, or nullptr
+  std::vector<const HMap::Tile*> tiles_;  // the tiles of the square, row by row, or nullptr
 };
 
 /// The F values of the four cells around a map position for one scan HVoxel's layer: eq. (9) where
