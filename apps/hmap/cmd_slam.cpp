@@ -92,10 +92,11 @@ void run_slam(const SlamOptions& o) {
   std::size_t converged = 0;
   std::size_t degenerate = 0;
   std::size_t coarse = 0;
+  std::size_t skipped = 0;
   std::size_t iterations = 0;
   double score_sum = 0.0;
   std::string log = "scan,matched,converged,iterations,initial_cost,final_cost,score,hvoxels,degenerate,coarse_search,"
-                    "eig0,eig1,eig2,guess_x,guess_y,guess_yaw,x,y,yaw,ms\n";
+                    "skipped,eig0,eig1,eig2,guess_x,guess_y,guess_yaw,x,y,yaw,ms\n";
   Progress progress("slam", n);
   for (std::size_t k = 0; k < n; ++k) {
     const PointCloud cloud = src.read(k, read_stats);
@@ -117,10 +118,10 @@ void run_slam(const SlamOptions& o) {
       const auto& m = step.match;
       const slam::PlanarPose xi = slam::planar_of(step.T_map_sensor);
       char line[512];
-      std::snprintf(line, sizeof line, "%zu,%d,%d,%d,%.6g,%.6g,%.6g,%zu,%d,%d,%.6g,%.6g,%.6g,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.3f\n", k,
+      std::snprintf(line, sizeof line, "%zu,%d,%d,%d,%.6g,%.6g,%.6g,%zu,%d,%d,%d,%.6g,%.6g,%.6g,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.3f\n", k,
                     step.matched ? 1 : 0, m.converged ? 1 : 0, m.iterations, m.initial_cost, m.final_cost, m.score,
-                    m.hvoxels_used, m.degenerate ? 1 : 0, m.coarse_search ? 1 : 0, m.eigenvalues(0), m.eigenvalues(1),
-                    m.eigenvalues(2), step.guess.x, step.guess.y, step.guess.yaw, xi.x, xi.y, xi.yaw, ms);
+                    m.hvoxels_used, m.degenerate ? 1 : 0, m.coarse_search ? 1 : 0, m.skipped ? 1 : 0, m.eigenvalues(0),
+                    m.eigenvalues(1), m.eigenvalues(2), step.guess.x, step.guess.y, step.guess.yaw, xi.x, xi.y, xi.yaw, ms);
       log += line;
     }
     estimate.push_back(step.T_map_sensor);
@@ -128,8 +129,9 @@ void run_slam(const SlamOptions& o) {
       converged += step.match.converged ? 1 : 0;
       degenerate += step.match.degenerate ? 1 : 0;
       coarse += step.match.coarse_search ? 1 : 0;
+      skipped += step.match.skipped ? 1 : 0;
       iterations += static_cast<std::size_t>(step.match.iterations);
-      score_sum += step.match.score;
+      score_sum += step.match.skipped ? 0.0 : step.match.score;
     }
     progress.update(k + 1, ms_total / static_cast<double>(k + 1));
   }
@@ -148,16 +150,17 @@ void run_slam(const SlamOptions& o) {
   write_png(dir / "trajectory.png", picture);
 
   const double matched = n > 1 ? static_cast<double>(n - 1) : 1.0;
+  const double scored = n > 1 + skipped ? static_cast<double>(n - 1 - skipped) : 1.0;  // mean M_H over these
   const MapStats st = slam.map().stats();
   std::printf(
       "SLAM on %zu scans: %.1f ms per scan (%.1f scans/s, matching and map update), %.1f Gauss-Newton "
-      "iterations per scan, %zu of %zu matches converged, %zu degenerate, %zu needed the coarse search, mean "
-      "M_H %.3f. The map has %zu cells and %zu HVoxels (cell %.3f m). Wrote %s/{poses.txt, poses_tum.txt, "
+      "iterations per scan, %zu of %zu matches converged, %zu degenerate, %zu needed the coarse search, "
+      "%zu kept the guess (fewer than %zu HVoxels), mean M_H %.3f. The map has %zu cells and %zu HVoxels (cell %.3f m). Wrote %s/{poses.txt, poses_tum.txt, "
       "map.hmap, trajectory.png, matches.csv}%s.\n",
       n, n > 0 ? ms_total / static_cast<double>(n) : 0.0,
       ms_total > 0.0 ? 1000.0 * static_cast<double>(n) / ms_total : 0.0, static_cast<double>(iterations) / matched,
-      converged, n > 0 ? n - 1 : 0, degenerate, coarse, score_sum / matched, st.cells, st.hvoxels,
-      params.map.cell_size, o.out.c_str(), truth ? " (truth in white, estimate in magenta)" : "");
+      converged, n > 0 ? n - 1 : 0, degenerate, coarse, skipped, slam::ScanMatcher::kMinHVoxels, score_sum / scored,
+      st.cells, st.hvoxels, params.map.cell_size, o.out.c_str(), truth ? " (truth in white, estimate in magenta)" : "");
 }
 
 }  // namespace

@@ -157,6 +157,7 @@ TEST(ScanMatcher, FeaturelessCorridorIsDegenerate) {
   const MatchResult none = matcher.match(empty, s.map, guess);
   EXPECT_TRUE(none.degenerate);
   EXPECT_FALSE(none.converged);
+  EXPECT_TRUE(none.skipped);
   EXPECT_EQ(none.hvoxels_used, 0U);
 }
 
@@ -181,6 +182,57 @@ TEST(ScanMatcher, MovingCarDoesNotPullThePose) {
   EXPECT_NEAR(r.pose.x, truth.x, 0.02);
   EXPECT_NEAR(r.pose.y, truth.y, 0.02);
   EXPECT_LT(yaw_error(r.pose.yaw, truth.yaw), 0.3 * kDeg);
+}
+
+/// A scan of `posts` thin vertical posts 1.5 m tall on a circle of radius 6 m around the sensor,
+/// 15 points each: one tall HVoxel per post.
+ScanHVoxels posts_scan(const Params& p, int posts) {
+  PointCloud points;
+  for (int k = 0; k < posts; ++k) {
+    const double a = 2.0 * std::numbers::pi * (k + 0.5) / posts;
+    for (int z = 0; z < 15; ++z) {
+      points.emplace_back(static_cast<float>(6.0 * std::cos(a)), static_cast<float>(6.0 * std::sin(a)),
+                          static_cast<float>(-1.5 + 0.1 * z));
+    }
+  }
+  ScanHVoxels scan_level;
+  ScanHVoxelizer(p.map).build(points, compose(PlanarPose{}, Attitude{kSensorHeight, 0.0, 0.0}), scan_level);
+  return scan_level;
+}
+
+TEST(ScanMatcher, TooFewHVoxelsKeepTheGuess) {
+  // A scan that shows a handful of HVoxels (a pedestrian, a kerb) is not matched: the guess is
+  // kept and the result says so. One HVoxel more than the minimum and it is matched again.
+  const sim::Scene scene = yard_builder().build();
+  const Params p = yard_params();
+  TwoScans s = two_scans(scene, p, {PlanarPose{}}, {});
+  const auto minimum = static_cast<int>(ScanMatcher::kMinHVoxels);
+  const ScanHVoxels few = posts_scan(p, minimum - 1);
+  ASSERT_EQ(few.hvoxels.size(), ScanMatcher::kMinHVoxels - 1);
+  ScanMatcher matcher(p);
+  const PlanarPose guess{0.3, -0.2, 0.05};
+  const MatchResult r = matcher.match(few, s.map, guess);
+  EXPECT_TRUE(r.skipped);
+  EXPECT_FALSE(r.converged);
+  EXPECT_TRUE(r.degenerate);
+  EXPECT_EQ(r.hvoxels_used, ScanMatcher::kMinHVoxels - 1);
+  EXPECT_EQ(r.iterations, 0);
+  EXPECT_DOUBLE_EQ(r.pose.x, guess.x);
+  EXPECT_DOUBLE_EQ(r.pose.y, guess.y);
+  EXPECT_DOUBLE_EQ(r.pose.yaw, guess.yaw);
+
+  const MatchResult enough = matcher.match(posts_scan(p, minimum), s.map, guess);
+  EXPECT_FALSE(enough.skipped);
+  EXPECT_EQ(enough.hvoxels_used, ScanMatcher::kMinHVoxels);
+  EXPECT_GT(enough.iterations, 0);
+
+  // min_match_height counts: the same posts are too short for a 2 m minimum.
+  Params tall = p;
+  tall.slam.min_match_height = 2.0;
+  ScanMatcher tall_matcher(tall);
+  const MatchResult filtered = tall_matcher.match(posts_scan(p, 2 * minimum), s.map, guess);
+  EXPECT_TRUE(filtered.skipped);
+  EXPECT_EQ(filtered.hvoxels_used, 0U);
 }
 
 TEST(ScanMatcher, EmptyMapGivesTheGuessBack) {

@@ -244,10 +244,14 @@ std::vector<PlanarPose> ScanMatcher::coarse_search(const PlanarPose& guess) {
 MatchResult ScanMatcher::match(const ScanHVoxels& scan_level, const HMap& map, const PlanarPose& guess,
                                CoarseSearch search) {
   select(scan_level);
-  if (candidates_.empty()) {
+  if (candidates_.size() < kMinHVoxels) {
+    // Too few to hold three degrees of freedom: a kerb or a pedestrian alone snaps the pose by
+    // degrees. The guess (odometry or constant velocity) is kept.
     MatchResult none;
     none.pose = guess;
+    none.hvoxels_used = candidates_.size();
     none.degenerate = true;
+    none.skipped = true;
     return none;
   }
   const auto center = map.key_of(guess.x, guess.y).value_or(CellKey{});
