@@ -3,6 +3,8 @@
 
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
+
 #include "hmap/io/kitti.hpp"
 #include "hmap/maps/mapper.hpp"
 #include "bench_data.hpp"
@@ -69,11 +71,17 @@ void BM_FreeSpaceHdl64(benchmark::State& state) {
   for (std::size_t k = 0; k < scans.size(); ++k) hvoxelizer.build(scans[k], hmap::Pose::Identity(), reps[k]);
   std::size_t k = 0;
   std::size_t rays = 0;
+  std::size_t free_cells = 0;
+  std::size_t iterations = 0;
   for (auto _ : state) {
     tracer.trace(reps[k++ % reps.size()]);
     rays += tracer.rays();
+    free_cells += tracer.cells().size();
+    ++iterations;
   }
   state.counters["rays/s"] = benchmark::Counter(static_cast<double>(rays), benchmark::Counter::kIsRate);
+  state.counters["rays"] = static_cast<double>(rays) / static_cast<double>(std::max<std::size_t>(iterations, 1));
+  state.counters["free_cells"] = static_cast<double>(free_cells) / static_cast<double>(std::max<std::size_t>(iterations, 1));
 }
 BENCHMARK(BM_FreeSpaceHdl64)->Unit(benchmark::kMillisecond);
 

@@ -78,14 +78,11 @@ void FreeSpaceTracer::Accumulator::reset() {
   rays = 0;
 }
 
-FreeCell& FreeSpaceTracer::Accumulator::cell_at(std::size_t w, const CellKey& key) {
-  std::uint32_t& slot = slot_of_window[w];
-  if (slot == 0) {
-    cells.push_back({key, 0, {}});
-    slot = static_cast<std::uint32_t>(cells.size());
-    used_windows.push_back(w);
-  }
-  return cells[slot - 1];
+FreeCell& FreeSpaceTracer::Accumulator::new_cell(std::size_t w, const CellKey& key) {
+  cells.push_back({key, 0, {}});
+  slot_of_window[w] = static_cast<std::uint32_t>(cells.size());
+  used_windows.push_back(w);
+  return cells.back();
 }
 
 void FreeSpaceTracer::trace(const ScanHVoxels& scan, const std::function<void()>& alongside) {
@@ -162,10 +159,14 @@ void FreeSpaceTracer::Accumulator::trace(const ScanHVoxels& scan, const MapParam
     std::size_t w = scan.window.index(start);
     const long w_step_i = step_i * scan.window.width;
     double t_in = 0.0;
+    // An axis with no step left never wins the comparison: its next crossing is put at infinity,
+    // so choosing the axis is one comparison, without branches.
+    if (rem_i == 0) t_max_i = kInf;
+    if (rem_j == 0) t_max_j = kInf;
     // Every cell before the target's: the HVoxel's own cell is not free.
     while (rem_i + rem_j > 0) {
-      const bool along_i = rem_i > 0 && (rem_j == 0 || t_max_i < t_max_j);
-      const double t_out = std::min(along_i ? t_max_i : t_max_j, 1.0);
+      const bool along_i = t_max_i < t_max_j;
+      const double t_out = std::min(std::min(t_max_i, t_max_j), 1.0);
       if ((t_out - t_in) * length_cells >= 1e-6) {  // a cell touched only at a corner is not crossed
         FreeCell& free_cell = cell_at(w, key);
         const auto a = static_cast<float>(t_in);
@@ -183,8 +184,8 @@ void FreeSpaceTracer::Accumulator::trace(const ScanHVoxels& scan, const MapParam
       w += static_cast<std::size_t>(along_i ? w_step_i : step_j);
       rem_i -= along_i ? 1 : 0;
       rem_j -= along_i ? 0 : 1;
-      t_max_i += along_i ? t_delta_i : 0.0;
-      t_max_j += along_i ? 0.0 : t_delta_j;
+      t_max_i = rem_i == 0 ? kInf : t_max_i + (along_i ? t_delta_i : 0.0);
+      t_max_j = rem_j == 0 ? kInf : t_max_j + (along_i ? 0.0 : t_delta_j);
     }
   }
 }

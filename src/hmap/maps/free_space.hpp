@@ -76,7 +76,11 @@ class FreeSpaceTracer {
     std::size_t rays = 0;
     void reset();
     void trace(const ScanHVoxels& scan, const MapParams& params);
-    FreeCell& cell_at(std::size_t window_index, const CellKey& key);
+    FreeCell& cell_at(std::size_t window_index, const CellKey& key) {
+      const std::uint32_t slot = slot_of_window[window_index];
+      return slot != 0 ? cells[slot - 1] : new_cell(window_index, key);
+    }
+    FreeCell& new_cell(std::size_t window_index, const CellKey& key);
   };
 
   MapParams params_;
