@@ -1,5 +1,8 @@
 #include "hmap/slam/scan_matcher.hpp"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
@@ -60,8 +63,20 @@ ScanMatcher::Linearization ScanMatcher::linearize(const PlanarPose& pose, std::s
   const auto c = static_cast<float>(std::sin(pose.yaw));
   const auto co = static_cast<float>(std::cos(pose.yaw));
   const auto robust = static_cast<float>(params_.slam.robust_scale);
-  double h00 = 0, h01 = 0, h02 = 0, h11 = 0, h12 = 0, h22 = 0, g0 = 0, g1 = 0, g2 = 0, cost = 0, score = 0;
-  for (std::size_t k = 0; k < candidates_.size(); k += stride) {
+  // The HVoxels are summed in fixed chunks, the chunks in parallel, then the chunk sums in order:
+  // the result does not depend on the number of threads or on scheduling.
+  struct Sums {
+    double h00 = 0, h01 = 0, h02 = 0, h11 = 0, h12 = 0, h22 = 0, g0 = 0, g1 = 0, g2 = 0, cost = 0, score = 0;
+  };
+  constexpr std::size_t kChunk = 1024;
+  const std::size_t visited = (candidates_.size() + stride - 1) / stride;
+  const std::size_t chunks = (visited + kChunk - 1) / kChunk;
+  std::vector<Sums> chunk_sums(chunks);
+  const auto sum_chunk = [&](std::size_t chunk) {
+  Sums& sums = chunk_sums[chunk];
+  auto& [h00, h01, h02, h11, h12, h22, g0, g1, g2, cost, score] = sums;
+  const std::size_t end = std::min(candidates_.size(), (chunk + 1) * kChunk * stride);
+  for (std::size_t k = chunk * kChunk * stride; k < end; k += stride) {
     Candidate& cand = candidates_[k];
     // eq. (6): S_i(ξ) = R(φ) v + p.
     const float qx = co * cand.v.x() - c * cand.v.y() + static_cast<float>(pose.x);
@@ -105,10 +120,23 @@ ScanMatcher::Linearization ScanMatcher::linearize(const PlanarPose& pose, std::s
     g2 += wgt * r * j2;
     score += m.value;
   }
-  lin.H << h00, h01, h02, h01, h11, h12, h02, h12, h22;  // eq. (8)
-  lin.g << g0, g1, g2;                                     // the sum of eq. (7)
-  lin.cost = cost;
-  lin.score = score;
+  };
+  if (chunks > 1) {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunks, 1), [&](const auto& range) {
+      for (std::size_t chunk = range.begin(); chunk != range.end(); ++chunk) sum_chunk(chunk);
+    });
+  } else if (chunks == 1) {
+    sum_chunk(0);
+  }
+  Sums t;
+  for (const Sums& part : chunk_sums) {
+    t.h00 += part.h00; t.h01 += part.h01; t.h02 += part.h02; t.h11 += part.h11; t.h12 += part.h12; t.h22 += part.h22;
+    t.g0 += part.g0; t.g1 += part.g1; t.g2 += part.g2; t.cost += part.cost; t.score += part.score;
+  }
+  lin.H << t.h00, t.h01, t.h02, t.h01, t.h11, t.h12, t.h02, t.h12, t.h22;  // eq. (8)
+  lin.g << t.g0, t.g1, t.g2;                                             // the sum of eq. (7)
+  lin.cost = t.cost;
+  lin.score = t.score;
   return lin;
 }
 
