@@ -236,6 +236,33 @@ MatchResult ScanMatcher::gauss_newton(const PlanarPose& guess) {
   return result;
 }
 
+double ScanMatcher::cost_only(const PlanarPose& pose, std::size_t stride) const {
+  const auto s = static_cast<float>(params_.map.cell_size);
+  const auto c = static_cast<float>(std::sin(pose.yaw));
+  const auto co = static_cast<float>(std::cos(pose.yaw));
+  const auto robust = static_cast<float>(params_.slam.robust_scale);
+  double cost = 0.0;
+  for (std::size_t k = 0; k < candidates_.size(); k += stride) {
+    const Candidate& cand = candidates_[k];
+    const float qx = co * cand.v.x() - c * cand.v.y() + static_cast<float>(pose.x);
+    const float qy = c * cand.v.x() + co * cand.v.y() + static_cast<float>(pose.y);
+    const float u = qx / s - 0.5F;
+    const float w = qy / s - 0.5F;
+    const float fu = std::floor(u);
+    const float fw = std::floor(w);
+    const CellKey base{static_cast<std::int32_t>(fu), static_cast<std::int32_t>(fw)};
+    const std::array<float, 4> F = base == cand.base ? cand.F : interpolator_.corner_values(view_, cand.layer, base);
+    const float r = 1.0F - bilinear(F, u - fu, w - fw, s).value;
+    if (robust > 0.0F) {
+      const double t = static_cast<double>(r / robust);
+      cost += static_cast<double>(robust * robust) * std::log1p(t * t);
+    } else {
+      cost += static_cast<double>(r) * r;
+    }
+  }
+  return cost;
+}
+
 std::vector<PlanarPose> ScanMatcher::coarse_search(const PlanarPose& guess) {
   // An exhaustive grid around the guess, scored on a thinned set of HVoxels. The steps are two
   // cells, in yaw two cells at the RMS radius: about the basin of Gauss-Newton, which refines.
@@ -249,18 +276,25 @@ std::vector<PlanarPose> ScanMatcher::coarse_search(const PlanarPose& guess) {
     double cost;
     PlanarPose pose;
   };
+  // The grid is scored in parallel (yaw rows on the cores), then ranked in grid order.
+  const int side = 2 * nt + 1;
+  const std::size_t per_yaw = static_cast<std::size_t>(side) * static_cast<std::size_t>(side);
+  const auto pose_at = [&](std::size_t index) {
+    const int a = static_cast<int>(index / per_yaw) - nr;
+    const int i = static_cast<int>(index % per_yaw) / side - nt;
+    const int j = static_cast<int>(index % per_yaw) % side - nt;
+    return PlanarPose{guess.x + i * dt, guess.y + j * dt, guess.yaw + a * dr};
+  };
+  std::vector<double> costs(static_cast<std::size_t>(2 * nr + 1) * per_yaw);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, costs.size(), per_yaw), [&](const auto& range) {
+    for (std::size_t k = range.begin(); k != range.end(); ++k) costs[k] = cost_only(pose_at(k), stride);
+  });
   std::array<Scored, kCoarseStarts> best;
   best.fill({std::numeric_limits<double>::infinity(), guess});
-  for (int a = -nr; a <= nr; ++a) {
-    for (int i = -nt; i <= nt; ++i) {
-      for (int j = -nt; j <= nt; ++j) {
-        const PlanarPose p{guess.x + i * dt, guess.y + j * dt, guess.yaw + a * dr};
-        const double cost = linearize(p, stride).cost;
-        if (cost >= best.back().cost) continue;
-        best.back() = {cost, p};
-        std::sort(best.begin(), best.end(), [](const Scored& x, const Scored& y) { return x.cost < y.cost; });
-      }
-    }
+  for (std::size_t k = 0; k < costs.size(); ++k) {
+    if (costs[k] >= best.back().cost) continue;
+    best.back() = {costs[k], pose_at(k)};
+    std::sort(best.begin(), best.end(), [](const Scored& x, const Scored& y) { return x.cost < y.cost; });
   }
   std::vector<PlanarPose> starts;
   for (const Scored& b : best) {

@@ -87,6 +87,9 @@ class ScanMatcher {
 
   void select(const ScanHVoxels& scan_level);
   Linearization linearize(const PlanarPose& pose, std::size_t stride);
+  /// The cost of linearize(pose, stride) (same terms, same order), without touching the cached
+  /// F values: poses can be scored in parallel.
+  [[nodiscard]] double cost_only(const PlanarPose& pose, std::size_t stride) const;
   [[nodiscard]] Eigen::Vector3d solve(const Linearization& lin, bool& degenerate, Eigen::Vector3d& eigenvalues) const;
   void assess_degeneracy(MatchResult& result);
   MatchResult gauss_newton(const PlanarPose& guess);
