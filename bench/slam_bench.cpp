@@ -55,4 +55,26 @@ void BM_SlamStepHdl64(benchmark::State& state) {
 }
 BENCHMARK(BM_SlamStepHdl64)->Unit(benchmark::kMillisecond);
 
+// The steady state: scans 3..16 of each pass timed, after the first scan (no matching) and the
+// second (always searched coarsely: constant velocity knows nothing yet) have set up the map.
+void BM_SlamSteadyHdl64(benchmark::State& state) {
+  const auto& scans = hmap::bench::hdl64_scans();
+  if (scans.size() < 3) {
+    state.SkipWithError("kitti_hdl64_seq16 is absent: set HMAP_DATA_DIR");
+    return;
+  }
+  std::size_t steps = 0;
+  for (auto _ : state) {
+    state.PauseTiming();
+    hmap::slam::HmapSlam slam(hmap::bench::hdl64_params());
+    slam.process(scans[0], {});
+    slam.process(scans[1], {});
+    state.ResumeTiming();
+    for (std::size_t k = 2; k < scans.size(); ++k) slam.process(scans[k], {});
+    steps += scans.size() - 2;
+  }
+  state.counters["scans/s"] = benchmark::Counter(static_cast<double>(steps), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_SlamSteadyHdl64)->Unit(benchmark::kMillisecond);
+
 }  // namespace
