@@ -73,16 +73,19 @@ std::size_t FreeSpaceTracer::rays() const {
 void FreeSpaceTracer::Accumulator::reset() {
   for (std::size_t w : used_windows) slot_of_window[w] = 0;
   used_windows.clear();
-  cells.clear();
+  used_cells = 0;
   targets.clear();
   rays = 0;
 }
 
 FreeCell& FreeSpaceTracer::Accumulator::new_cell(std::size_t w, const CellKey& key) {
-  cells.push_back({key, 0, {}});
-  slot_of_window[w] = static_cast<std::uint32_t>(cells.size());
+  if (used_cells == cells.size()) cells.resize(std::max<std::size_t>(4096, 2 * cells.size()));
+  FreeCell& cell = cells[used_cells++];
+  cell.key = key;
+  cell.n = 0;  // its intervals are written before they are read
+  slot_of_window[w] = static_cast<std::uint32_t>(used_cells);
   used_windows.push_back(w);
-  return cells.back();
+  return cell;
 }
 
 void FreeSpaceTracer::trace(const ScanHVoxels& scan, const std::function<void()>& alongside) {
@@ -105,7 +108,7 @@ void FreeSpaceTracer::trace(const ScanHVoxels& scan, const std::function<void()>
   const auto unite_gap = static_cast<float>(params_.free_unite_gap);
   Accumulator& first = quadrants_[0];
   for (std::size_t q = 1; q < quadrants_.size(); ++q) {
-    for (FreeCell& fc : quadrants_[q].cells) {
+    for (FreeCell& fc : quadrants_[q].used()) {
       if (fc.key.i != c.i && fc.key.j != c.j) continue;
       FreeCell& into = first.cell_at(scan.window.index(fc.key), fc.key);
       for (const FreeHVoxel& f : fc.hvoxels()) into.add(f.z_min, f.z_max, f.rays, unite_gap, join_gap);
@@ -114,7 +117,7 @@ void FreeSpaceTracer::trace(const ScanHVoxels& scan, const std::function<void()>
   }
   cells_.clear();
   for (const auto& q : quadrants_) {
-    for (const FreeCell& fc : q.cells) {
+    for (const FreeCell& fc : q.used()) {
       if (fc.n > 0) cells_.push_back(&fc);
     }
   }

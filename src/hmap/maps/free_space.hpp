@@ -70,7 +70,8 @@ class FreeSpaceTracer {
   struct Accumulator {
     std::vector<std::uint32_t> slot_of_window;  // free cell index + 1 per window cell, 0: none
     std::vector<std::size_t> used_windows;
-    std::vector<FreeCell> cells;
+    std::vector<FreeCell> cells;                // [0, used_cells) hold this trace's free cells
+    std::size_t used_cells = 0;                 // (kept allocated across scans: no re-construction)
     std::vector<std::uint32_t> targets;         // scan cells whose rays this side casts
     std::vector<Eigen::Vector2f> ray_dz;        // (z_min, z_max) − z_s of the current target
     std::size_t rays = 0;
@@ -79,6 +80,9 @@ class FreeSpaceTracer {
     FreeCell& cell_at(std::size_t window_index, const CellKey& key) {
       const std::uint32_t slot = slot_of_window[window_index];
       return slot != 0 ? cells[slot - 1] : new_cell(window_index, key);
+    }
+    [[nodiscard]] std::span<FreeCell> used() { return {cells.data(), used_cells}; }
+    [[nodiscard]] std::span<const FreeCell> used() const { return {cells.data(), used_cells};
     }
     FreeCell& new_cell(std::size_t window_index, const CellKey& key);
   };
