@@ -70,15 +70,15 @@ fuzz-ci: deps
 	fuzz/run_fuzz.sh $(BUILD_FUZZ) $(FUZZ_SECONDS)
 
 # The tests of the code that runs in parallel (TBB: scan binning, ray tracing, merging, the
-# occupancy update, the elevation baseline, the map metrics) under ThreadSanitizer, with TBB
+# occupancy update, the elevation baseline, the map metrics, the SLAM matcher) under ThreadSanitizer, with TBB
 # replaced by std::thread (tests/reliability/tsan_tbb: Debian's libtbb is not instrumented).
-TSAN_TESTS := maps_tests occupancy_tests baseline_tests eval_tests
+TSAN_TESTS := maps_tests occupancy_tests baseline_tests eval_tests slam_tests
 test-tsan: deps
 	cmake -S . -B $(BUILD_TSAN) -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DHMAP_TSAN=ON \
 	  -DHMAP_BUILD_BENCH=OFF -DHMAP_DATA_DIR=$(DATA) $(LAUNCHER)
 	cmake --build $(BUILD_TSAN) -j $(JOBS) --target $(TSAN_TESTS)
 	cd $(BUILD_TSAN) && TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1" \
-	  ctest --output-on-failure -j $(JOBS) -L '^(maps|occupancy|baseline|eval)$$'
+	  ctest --output-on-failure -j $(JOBS) -L '^(maps|occupancy|baseline|eval|slam)$$'
 
 bench: build
 	$(BUILD)/bin/hmap bench --kitti $(DATA)/kitti_hdl64_seq16 --cell 0.2 --max-range 50

@@ -136,8 +136,17 @@ TEST(ColumnTileTest, MatchesStandaloneColumnsUnderRandomEdits) {
   }
   EXPECT_EQ(tile.hvoxel_count(), total);
   EXPECT_GE(tile.heap_bytes(), total * sizeof(HVoxel));
-  // A copy holds the same columns; shrinking keeps them and fits the buffer.
+  // A copy holds the same columns; shrinking keeps them and fits the buffer; a moved-from tile
+  // is empty, not a tile with columns and no buffer.
   ColumnTile copy(tile);
+  {
+    ColumnTile source(tile);
+    ColumnTile target(std::move(source));
+    EXPECT_TRUE(source.empty());  // NOLINT(bugprone-use-after-move): what is left is specified
+    EXPECT_EQ(source.heap_bytes(), 0U);
+    EXPECT_TRUE(source.column(3).empty());
+    EXPECT_EQ(target.hvoxel_count(), total);
+  }
   copy.shrink_to_fit();
   EXPECT_EQ(copy.heap_bytes(), total * sizeof(HVoxel) + 16);
   for (int local = 0; local < ColumnTile::kCells; ++local) {

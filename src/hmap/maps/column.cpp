@@ -14,6 +14,11 @@ ColumnTile::ColumnTile(const ColumnTile& other) : offset_(other.offset_), capaci
   }
 }
 
+ColumnTile::ColumnTile(ColumnTile&& other) noexcept
+    : offset_(std::exchange(other.offset_, {})),
+      capacity_(std::exchange(other.capacity_, std::uint16_t{0})),
+      hvoxels_(std::move(other.hvoxels_)) {}
+
 ColumnTile& ColumnTile::operator=(ColumnTile other) noexcept {
   std::swap(offset_, other.offset_);
   std::swap(capacity_, other.capacity_);

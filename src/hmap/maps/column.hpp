@@ -147,7 +147,8 @@ class ColumnTile {
 
   ColumnTile() = default;
   ColumnTile(const ColumnTile& other);
-  ColumnTile(ColumnTile&&) noexcept = default;
+  /// Leaves `other` empty.
+  ColumnTile(ColumnTile&& other) noexcept;
   ColumnTile& operator=(ColumnTile other) noexcept;
   ~ColumnTile() = default;
 
