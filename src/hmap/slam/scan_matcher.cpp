@@ -20,6 +20,27 @@ constexpr std::size_t kCoarseHVoxels = 200;
 /// The degeneracy check evaluates the cost with at most this many HVoxels.
 constexpr std::size_t kCurvatureHVoxels = 500;
 
+/// A scan HVoxel's position v moved by ξ (eq. 6: S(ξ) = R(φ) v + p), in cell units from the cell
+/// centres, which sit at (i + 0.5)·s: (i0, j0) = `base` is the centre below and left of it and
+/// (a, b) = (u − fu, w − fw) its place in that square.
+struct Projection {
+  float u;
+  float w;
+  float fu;
+  float fw;
+  CellKey base;
+};
+[[nodiscard]] inline Projection project(const Eigen::Vector2f& v, float sin_yaw, float cos_yaw, const PlanarPose& pose,
+                                        float cell) {
+  const float qx = cos_yaw * v.x() - sin_yaw * v.y() + static_cast<float>(pose.x);
+  const float qy = sin_yaw * v.x() + cos_yaw * v.y() + static_cast<float>(pose.y);
+  Projection p{qx / cell - 0.5F, qy / cell - 0.5F, 0.0F, 0.0F, {}};
+  p.fu = std::floor(p.u);
+  p.fw = std::floor(p.w);
+  p.base = {static_cast<std::int32_t>(p.fu), static_cast<std::int32_t>(p.fw)};
+  return p;
+}
+
 }  // namespace
 
 ScanMatcher::ScanMatcher(const Params& params) : params_(params), interpolator_((validate(params), params)) {}
@@ -78,15 +99,7 @@ ScanMatcher::Linearization ScanMatcher::linearize(const PlanarPose& pose, std::s
   const std::size_t end = std::min(candidates_.size(), (chunk + 1) * kChunk * stride);
   for (std::size_t k = chunk * kChunk * stride; k < end; k += stride) {
     Candidate& cand = candidates_[k];
-    // eq. (6): S_i(ξ) = R(φ) v + p.
-    const float qx = co * cand.v.x() - c * cand.v.y() + static_cast<float>(pose.x);
-    const float qy = c * cand.v.x() + co * cand.v.y() + static_cast<float>(pose.y);
-    // Cell centres sit at (i + 0.5)·s: (i0, j0) is the centre below and left of q.
-    const float u = qx / s - 0.5F;
-    const float w = qy / s - 0.5F;
-    const float fu = std::floor(u);
-    const float fw = std::floor(w);
-    const CellKey base{static_cast<std::int32_t>(fu), static_cast<std::int32_t>(fw)};
+    const auto [u, w, fu, fw, base] = project(cand.v, c, co, pose, s);
     if (!(base == cand.base)) {
       // The four F values depend only on the layer and the cells: cached until q leaves them.
       cand.F = interpolator_.corner_values(view_, cand.layer, base);
@@ -244,13 +257,7 @@ double ScanMatcher::cost_only(const PlanarPose& pose, std::size_t stride) const 
   double cost = 0.0;
   for (std::size_t k = 0; k < candidates_.size(); k += stride) {
     const Candidate& cand = candidates_[k];
-    const float qx = co * cand.v.x() - c * cand.v.y() + static_cast<float>(pose.x);
-    const float qy = c * cand.v.x() + co * cand.v.y() + static_cast<float>(pose.y);
-    const float u = qx / s - 0.5F;
-    const float w = qy / s - 0.5F;
-    const float fu = std::floor(u);
-    const float fw = std::floor(w);
-    const CellKey base{static_cast<std::int32_t>(fu), static_cast<std::int32_t>(fw)};
+    const auto [u, w, fu, fw, base] = project(cand.v, c, co, pose, s);
     const std::array<float, 4> F = base == cand.base ? cand.F : interpolator_.corner_values(view_, cand.layer, base);
     const float r = 1.0F - bilinear(F, u - fu, w - fw, s).value;
     if (robust > 0.0F) {
