@@ -33,7 +33,10 @@ class TornFileTest : public ::testing::Test {
   /// Temporary files of an interrupted save beside `target` (".NAME.tmp.PID.RANDOM").
   std::vector<fs::path> temporaries(const fs::path& target) const {
     std::vector<fs::path> found;
-    const std::string prefix = "." + target.filename().string() + ".tmp.";
+    // Appended piece by piece: GCC 12 warns falsely (-Wrestrict, its bug 105329) on "." + string.
+    std::string prefix = ".";
+    prefix += target.filename().string();
+    prefix += ".tmp.";
     for (const auto& entry : fs::directory_iterator(dir_)) {
       if (entry.path().filename().string().starts_with(prefix)) found.push_back(entry.path());
     }
