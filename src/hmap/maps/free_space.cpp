@@ -166,20 +166,19 @@ void FreeSpaceTracer::Accumulator::trace(const ScanHVoxels& scan, const MapParam
     // so choosing the axis is one comparison, without branches.
     if (rem_i == 0) t_max_i = kInf;
     if (rem_j == 0) t_max_j = kInf;
+    // Lines are linear in t: their extremes over [t_in, t_out] of a cell are at the ends.
+    const auto add_band = [&](FreeCell& free_cell, const Eigen::Vector2f& dz, float a, float b) {
+      const float lo = zs + std::min(a * dz.x(), b * dz.x());
+      const float hi = zs + std::max(a * dz.y(), b * dz.y());
+      free_cell.add(lo, hi, 1.0F, unite_gap, join_gap);
+    };
     // Every cell before the target's: the HVoxel's own cell is not free.
+    const auto walk = [&](const auto& visit) {
     while (rem_i + rem_j > 0) {
       const bool along_i = t_max_i < t_max_j;
       const double t_out = std::min(std::min(t_max_i, t_max_j), 1.0);
       if ((t_out - t_in) * length_cells >= 1e-6) {  // a cell touched only at a corner is not crossed
-        FreeCell& free_cell = cell_at(w, key);
-        const auto a = static_cast<float>(t_in);
-        const auto b = static_cast<float>(t_out);
-        for (const Eigen::Vector2f& dz : ray_dz) {
-          // Lines are linear in t: their extremes over [t_in, t_out] are at the ends.
-          const float lo = zs + std::min(a * dz.x(), b * dz.x());
-          const float hi = zs + std::max(a * dz.y(), b * dz.y());
-          free_cell.add(lo, hi, 1.0F, unite_gap, join_gap);
-        }
+        visit(cell_at(w, key), static_cast<float>(t_in), static_cast<float>(t_out));
       }
       t_in = t_out;
       key.i += static_cast<std::int32_t>(along_i ? step_i : 0);
@@ -189,6 +188,16 @@ void FreeSpaceTracer::Accumulator::trace(const ScanHVoxels& scan, const MapParam
       rem_j -= along_i ? 0 : 1;
       t_max_i = rem_i == 0 ? kInf : t_max_i + (along_i ? t_delta_i : 0.0);
       t_max_j = rem_j == 0 ? kInf : t_max_j + (along_i ? 0.0 : t_delta_j);
+    }
+    };
+    // Most targets cast one ray: that walk has no loop over the rays inside.
+    if (ray_dz.size() == 1) {
+      const Eigen::Vector2f dz = ray_dz.front();
+      walk([&](FreeCell& free_cell, float a, float b) { add_band(free_cell, dz, a, b); });
+    } else {
+      walk([&](FreeCell& free_cell, float a, float b) {
+        for (const Eigen::Vector2f& dz : ray_dz) add_band(free_cell, dz, a, b);
+      });
     }
   }
 }
