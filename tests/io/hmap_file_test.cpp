@@ -408,8 +408,8 @@ TEST_F(HMapFileTest, HandCraftedFileLoads) {
   write_bytes(dir_ / "d.hmap", assemble(p));
   EXPECT_EQ(load_hmap(dir_ / "d.hmap").column({0, 5}).size(), 20000U);
 
-  // A tile holds at most 65535 HVoxels (its columns are packed with 16-bit offsets): two columns
-  // of 40000 are refused by name, not wrapped around.
+  // Two columns of 40000 in one tile: past the 65,535 of 16-bit offsets, the tile widens them
+  // (no wrap-around), and the map saves back to the same bytes.
   TileSpec crowded{0, 0, {{5, tall.cells[0].second}, {6, tall.cells[0].second}}};
   for (auto& cell : crowded.cells) cell.second.resize(40000, cell.second.back());
   for (std::size_t column = 0; column < 2; ++column) {
@@ -421,7 +421,13 @@ TEST_F(HMapFileTest, HandCraftedFileLoads) {
   const std::string crowded_payload = payload_of({crowded});
   p.payload_size = crowded_payload.size();
   p.compressed = raw_zstd_frame(crowded_payload, false);
-  EXPECT_TRUE(rejected(dir_ / "e.hmap", assemble(p), "tile (0, 0) holds more than 65535 HVoxels"));
+  write_bytes(dir_ / "e.hmap", assemble(p));
+  const HMap crowded_map = load_hmap(dir_ / "e.hmap");
+  ASSERT_EQ(crowded_map.column(HMap::key_in_tile({0, 0}, 5)).size(), 40000U);
+  ASSERT_EQ(crowded_map.column(HMap::key_in_tile({0, 0}, 6)).size(), 40000U);
+  EXPECT_EQ(crowded_map.column(HMap::key_in_tile({0, 0}, 6))[39999].z_min, 79998.0F);
+  save_hmap(dir_ / "e2.hmap", crowded_map);
+  expect_same_map(crowded_map, load_hmap(dir_ / "e2.hmap"));
 }
 
 // A uniform map compresses far beyond 64:1, so the reader bounds memory by decoding in blocks

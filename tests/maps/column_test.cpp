@@ -154,17 +154,47 @@ TEST(ColumnTileTest, MatchesStandaloneColumnsUnderRandomEdits) {
   }
 }
 
-TEST(ColumnTileTest, EmptyColumnsAndFullTile) {
+// Past 65,535 HVoxels the 16-bit offsets would wrap: the tile moves to 32-bit offsets and every
+// column stays intact; shrinking below the limit moves it back.
+TEST(ColumnTileTest, GrowsPastSixteenBitOffsets) {
   ColumnTile tile;
   EXPECT_TRUE(tile.column(5).empty());
   EXPECT_EQ(tile.column(5).find(0.0F), nullptr);
+  const auto hv_at = [](std::size_t k) { return HVoxel{float(2 * k), float(2 * k) + 0.5F, 1, 0.1F}; };
+  TileColumn first(tile, 0);
+  TileColumn middle(tile, 30);
   TileColumn last(tile, ColumnTile::kCells - 1);
-  for (std::size_t k = 0; k < ColumnTile::kMaxHVoxels; ++k) last.push_back({float(k), float(k) + 0.5F, 1, 0.1F});
-  EXPECT_EQ(tile.hvoxel_count(), ColumnTile::kMaxHVoxels);
-  EXPECT_TRUE(tile.column(0).empty());
-  EXPECT_THROW(TileColumn(tile, 0).push_back({0, 0, 1, 0.1F}), Error) << "one HVoxel more than a tile holds";
-  EXPECT_EQ(tile.hvoxel_count(), ColumnTile::kMaxHVoxels) << "the tile is unchanged by the refused insert";
-  EXPECT_TRUE(tile.column(0).empty());
+  constexpr std::size_t kPer = 30000;  // three columns of 30,000: 90,000 in the tile
+  constexpr std::size_t kShifted = 100;  // the middle column's lowest, inserted last at the bottom
+  for (std::size_t k = 0; k < kPer; ++k) first.push_back(hv_at(k));
+  for (std::size_t k = kShifted; k < kPer; ++k) middle.push_back(hv_at(k));
+  for (std::size_t k = 0; k < kPer; ++k) last.push_back(hv_at(k));  // crosses 65,535 here
+  for (std::size_t k = kShifted; k-- > 0;) middle.insert(0, hv_at(k));  // shifts the last column
+  ASSERT_EQ(tile.hvoxel_count(), 3 * kPer);
+  for (const int local : {0, 30, ColumnTile::kCells - 1}) {
+    const ColumnView c = tile.column(local);
+    ASSERT_EQ(c.size(), kPer) << local;
+    EXPECT_TRUE(c.is_valid()) << local;
+    for (const std::size_t k : {std::size_t{0}, std::size_t{1}, kPer / 2, kPer - 1}) EXPECT_EQ(c[k], hv_at(k)) << local;
+  }
+  EXPECT_TRUE(tile.column(1).empty());
+  EXPECT_TRUE(tile.column(63 - 1).empty());
+  EXPECT_GT(tile.heap_bytes(), 3 * kPer * sizeof(HVoxel) + (ColumnTile::kCells + 1) * 4);
+  const ColumnTile copy(tile);
+  EXPECT_TRUE(std::equal(copy.column(30).begin(), copy.column(30).end(), tile.column(30).begin()));
+
+  // Back under the limit: the same columns, 16-bit offsets again, the buffer fitted.
+  middle.erase(0, kPer);
+  last.erase(kPer / 2, kPer);
+  tile.shrink_to_fit();
+  EXPECT_EQ(tile.hvoxel_count(), kPer + kPer / 2);
+  EXPECT_EQ(tile.heap_bytes(), (kPer + kPer / 2) * sizeof(HVoxel) + 16);
+  EXPECT_TRUE(tile.column(30).empty());
+  ASSERT_EQ(tile.column(ColumnTile::kCells - 1).size(), kPer / 2);
+  EXPECT_EQ(tile.column(ColumnTile::kCells - 1)[kPer / 2 - 1], hv_at(kPer / 2 - 1));
+  EXPECT_EQ(tile.column(0)[kPer - 1], hv_at(kPer - 1));
+  first.push_back(hv_at(kPer));
+  EXPECT_EQ(tile.column(0).size(), kPer + 1);
 }
 
 TEST(DensityTest, EquationOneByHand) {

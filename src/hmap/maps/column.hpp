@@ -138,12 +138,14 @@ class Column : public ColumnQueries<Column> {
 };
 
 /// The columns of one map tile, packed: column k is hvoxels[offset[k], offset[k + 1]).
-/// A tile holds at most kMaxHVoxels HVoxels (an average of 1023 per column; inserting beyond
-/// throws hmap::Error).
+/// The offsets are 16-bit while the tile holds at most 65,535 HVoxels (every tile of a usual map:
+/// an average of 1,023 per column); a tile that grows past it (a height gap near 0 on tall
+/// walls) moves them to a 32-bit array of its own.
 class ColumnTile {
  public:
   static constexpr int kCells = 64;
-  static constexpr std::size_t kMaxHVoxels = 65535;
+  /// The most HVoxels a tile can hold (inserting beyond throws hmap::Error).
+  static constexpr std::size_t kMaxHVoxels = 0xFFFFFFFFU;
 
   ColumnTile() = default;
   ColumnTile(const ColumnTile& other);
@@ -152,16 +154,20 @@ class ColumnTile {
   ColumnTile& operator=(ColumnTile other) noexcept;
   ~ColumnTile() = default;
 
-  [[nodiscard]] ColumnView column(int local) const { return {hvoxels_ ? hvoxels_.get() + offset_[local] : nullptr, size(local)}; }
-  [[nodiscard]] std::size_t size(int local) const {
-    return static_cast<std::size_t>(offset_[local + 1]) - offset_[local];
+  [[nodiscard]] ColumnView column(int local) const {
+    return {hvoxels_ ? hvoxels_.get() + offset(local) : nullptr, size(local)};
   }
-  [[nodiscard]] HVoxel* data(int local) { return hvoxels_ ? hvoxels_.get() + offset_[local] : nullptr; }
+  [[nodiscard]] std::size_t size(int local) const { return offset(local + 1) - offset(local); }
+  [[nodiscard]] HVoxel* data(int local) { return hvoxels_ ? hvoxels_.get() + offset(local) : nullptr; }
   /// True when no column holds an HVoxel.
-  [[nodiscard]] bool empty() const { return offset_[kCells] == 0; }
-  [[nodiscard]] std::size_t hvoxel_count() const { return offset_[kCells]; }
-  /// Heap bytes held beyond the tile object (the HVoxel buffer and the allocator's header).
-  [[nodiscard]] std::size_t heap_bytes() const { return capacity_ == 0 ? 0 : capacity_ * sizeof(HVoxel) + 16; }
+  [[nodiscard]] bool empty() const { return offset(kCells) == 0; }
+  [[nodiscard]] std::size_t hvoxel_count() const { return offset(kCells); }
+  /// Heap bytes held beyond the tile object (the HVoxel buffer, any 32-bit offsets, and the
+  /// allocator's 16-byte header of each).
+  [[nodiscard]] std::size_t heap_bytes() const {
+    return (capacity_ == 0 ? 0 : capacity_ * sizeof(HVoxel) + 16) +
+           (wide_ ? (kCells + 1) * sizeof(std::uint32_t) + 16 : 0);
+  }
 
   /// Inserts `v` at index `pos` of column `local`.
   void insert(int local, std::size_t pos, const HVoxel& v);
@@ -171,11 +177,15 @@ class ColumnTile {
   void shrink_to_fit();
 
  private:
+  [[nodiscard]] std::size_t offset(int k) const {
+    return wide_ ? wide_[static_cast<std::size_t>(k)] : offset_[static_cast<std::size_t>(k)];
+  }
   void grow(std::size_t needed);
 
-  std::array<std::uint16_t, kCells + 1> offset_{};
-  std::uint16_t capacity_ = 0;
+  std::array<std::uint16_t, kCells + 1> offset_{};  // while wide_ is null
+  std::uint32_t capacity_ = 0;
   std::unique_ptr<HVoxel[]> hvoxels_;
+  std::unique_ptr<std::uint32_t[]> wide_;  // kCells + 1 offsets, once past 65,535 HVoxels
 };
 
 /// One column of a tile, to change it; valid while the tile lives.
