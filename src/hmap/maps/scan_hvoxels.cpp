@@ -23,6 +23,7 @@ ScanHVoxelizer::ScanHVoxelizer(const MapParams& params) : params_(params) {
 
 void ScanHVoxelizer::build(std::span<const Point3f> points_sensor, const Pose& T_map_sensor,
                            ScanHVoxels& out) {
+  // Before anything changes: a non-finite pose would make every cell key undefined.
   if (!T_map_sensor.matrix().allFinite()) throw Error("scan pose is not finite");
   index_points(points_sensor, T_map_sensor, out);
   cluster_heights(out);
@@ -40,8 +41,7 @@ void ScanHVoxelizer::index_points(std::span<const Point3f> points_sensor, const 
   const double cell = params_.cell_size;
   const Eigen::Vector3d origin = T_map_sensor.translation();
   out.origin_map = origin;
-  // Negated so that NaN fails too: a non-finite pose would make every cell key undefined.
-  if (!T_map_sensor.matrix().allFinite()) throw Error("scan pose is not finite");
+  // build() has refused a non-finite pose; negated so that a NaN-free but huge one fails too.
   if (!(std::abs(origin.x() / cell) <= 1e9) || !(std::abs(origin.y() / cell) <= 1e9)) {
     throw Error("scan pose is too far from the map origin (beyond 10^9 cells)");
   }
