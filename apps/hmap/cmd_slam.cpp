@@ -6,6 +6,7 @@
 
 #include "cli_common.hpp"
 #include "hmap/core/error.hpp"
+#include "hmap/core/sensor_profile.hpp"
 #include "hmap/io/atomic_file.hpp"
 #include "hmap/io/hmap_file.hpp"
 #include "hmap/io/kitti.hpp"
@@ -45,9 +46,23 @@ PoseList read_scan_poses(const std::string& path, std::size_t scans, const std::
 }
 
 void run_slam(const SlamOptions& o) {
-  const Params params = o.params.resolve();
+  Params params = o.params.resolve();
   const ScanSource src = ScanSource::open(o.sensors, o.kitti, o.files, "", o.scans, /*poses_required=*/false);
   if (!src.description.empty()) std::fprintf(stderr, "input: %s\n", src.description.c_str());
+  // Defaults the first scan can tell (the ring spacing), for parameters left at the preset's value.
+  CloudReadStats read_stats;
+  std::optional<PointCloud> first;
+  std::string chosen_text;
+  if (!src.scans.empty()) {
+    first = src.read(0, read_stats);
+    const SensorProfile sensor = profile_scan(*first);
+    for (const ChosenDefault& c : adapt_to_sensor(params, hmap::preset(o.params.preset), sensor)) {
+      char line[256];
+      std::snprintf(line, sizeof line, " %s = %g (%s).", c.name.c_str(), c.value, c.reason.c_str());
+      chosen_text += line;
+    }
+    validate(params);
+  }
   // RGB-D folders and bags come with poses (the camera's, or /tf and odometry topics): their z,
   // roll and pitch serve as the attitude unless --attitude-from is given, and with
   // `--odometry source` their motion is the initial guess.
@@ -87,7 +102,6 @@ void run_slam(const SlamOptions& o) {
   std::filesystem::create_directories(o.out);
   slam::HmapSlam slam(params);
   PoseList estimate;
-  CloudReadStats read_stats;
   double ms_total = 0.0;
   std::size_t converged = 0;
   std::size_t degenerate = 0;
@@ -96,12 +110,14 @@ void run_slam(const SlamOptions& o) {
   std::size_t iterations = 0;
   double score_sum = 0.0;
   std::string log = "scan,matched,converged,iterations,initial_cost,final_cost,score,hvoxels,degenerate,coarse_search,"
-                    "skipped,eig0,eig1,eig2,guess_x,guess_y,guess_yaw,x,y,yaw,ms\n";
+                    "skipped,eig0,eig1,eig2,guess_x,guess_y,guess_yaw,x,y,yaw,z,roll,pitch,attitude_fit,surfaces,surface_rms,"
+                    "observable_x,observable_y,observable_z,observable_roll,observable_pitch,observable_yaw,planar_passes,ms\n";
   Progress progress("slam", n);
   for (std::size_t k = 0; k < n; ++k) {
-    const PointCloud cloud = src.read(k, read_stats);
+    const PointCloud cloud = k == 0 && first ? std::move(*first) : src.read(k, read_stats);
     const auto t0 = Clock::now();
-    const slam::Attitude att = attitude ? slam::attitude_of((*attitude)[k]) : slam::Attitude{};
+    std::optional<slam::Attitude> att;
+    if (attitude) att = slam::attitude_of((*attitude)[k]);
     std::optional<slam::PlanarPose> guess;
     if (odometry && k > 0) {
       // Odometry gives the motion since the last scan; it is applied to the last estimate.
@@ -117,11 +133,18 @@ void run_slam(const SlamOptions& o) {
     {
       const auto& m = step.match;
       const slam::PlanarPose xi = slam::planar_of(step.T_map_sensor);
-      char line[512];
-      std::snprintf(line, sizeof line, "%zu,%d,%d,%d,%.6g,%.6g,%.6g,%zu,%d,%d,%d,%.6g,%.6g,%.6g,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.3f\n", k,
-                    step.matched ? 1 : 0, m.converged ? 1 : 0, m.iterations, m.initial_cost, m.final_cost, m.score,
+      const slam::Attitude at = slam::attitude_of(step.T_map_sensor);
+      const auto& af = step.attitude;
+      char line[768];
+      std::snprintf(line, sizeof line,
+                    "%zu,%d,%d,%d,%.6g,%.6g,%.6g,%zu,%d,%d,%d,%.6g,%.6g,%.6g,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,"
+                    "%d,%zu,%.4f,%d,%d,%d,%d,%d,%d,%d,%.3f\n",
+                    k, step.matched ? 1 : 0, m.converged ? 1 : 0, m.iterations, m.initial_cost, m.final_cost, m.score,
                     m.hvoxels_used, m.degenerate ? 1 : 0, m.coarse_search ? 1 : 0, m.skipped ? 1 : 0, m.eigenvalues(0),
-                    m.eigenvalues(1), m.eigenvalues(2), step.guess.x, step.guess.y, step.guess.yaw, xi.x, xi.y, xi.yaw, ms);
+                    m.eigenvalues(1), m.eigenvalues(2), step.guess.x, step.guess.y, step.guess.yaw, xi.x, xi.y, xi.yaw,
+                    at.z, at.roll, at.pitch, af.ran ? 1 : 0, af.surfaces, af.rms, step.observable[0] ? 1 : 0,
+                    step.observable[1] ? 1 : 0, step.observable[2] ? 1 : 0, step.observable[3] ? 1 : 0,
+                    step.observable[4] ? 1 : 0, step.observable[5] ? 1 : 0, step.planar_passes, ms);
       log += line;
     }
     estimate.push_back(step.T_map_sensor);
@@ -156,11 +179,13 @@ void run_slam(const SlamOptions& o) {
       "SLAM on %zu scans: %.1f ms per scan (%.1f scans/s, matching and map update), %.1f Gauss-Newton "
       "iterations per scan, %zu of %zu matches converged, %zu degenerate, %zu needed the coarse search, "
       "%zu kept the guess (fewer than %zu HVoxels), mean M_H %.3f. The map has %zu cells and %zu HVoxels (cell %.3f m). Wrote %s/{poses.txt, poses_tum.txt, "
-      "map.hmap, trajectory.png, matches.csv}%s.\n",
+      "map.hmap, trajectory.png, matches.csv}%s. Attitude (z, roll, pitch): %s.%s%s\n",
       n, n > 0 ? ms_total / static_cast<double>(n) : 0.0,
       ms_total > 0.0 ? 1000.0 * static_cast<double>(n) / ms_total : 0.0, static_cast<double>(iterations) / matched,
       converged, n > 0 ? n - 1 : 0, degenerate, coarse, skipped, slam::ScanMatcher::kMinHVoxels, score_sum / scored,
-      st.cells, st.hvoxels, params.map.cell_size, o.out.c_str(), truth ? " (truth in white, estimate in magenta)" : "");
+      st.cells, st.hvoxels, params.map.cell_size, o.out.c_str(), truth ? " (truth in white, estimate in magenta)" : "",
+      attitude ? "given (the poses of the input or --attitude-from)" : "estimated from the scans (floor normal + map surfaces)",
+      chosen_text.empty() ? "" : " Chosen from the first scan:", chosen_text.c_str());
 }
 
 }  // namespace

@@ -60,7 +60,7 @@ TEST(HmapSlam, FollowsASimulatedDrive) {
   for (int k = 0; k < 6; ++k) {
     const PlanarPose truth{0.08 * k, 0.005 * k * k, 0.3 * kDeg * k};
     const PointCloud scan = lidar.scan(scene, compose(truth, att), 0.1 * k).points_sensor;
-    const SlamStep step = slam.process(scan, att);
+    const SlamStep step = slam.process(scan, std::optional<Attitude>(att));
     EXPECT_EQ(step.matched, k > 0);
     const PlanarPose est = planar_of(step.T_map_sensor);
     EXPECT_NEAR(est.x, truth.x, 0.03) << k;

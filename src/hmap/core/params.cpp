@@ -136,6 +136,20 @@ std::vector<ParamRef> param_refs(Params& p) {
                   s.coarse_translation));
   r.push_back(ref("slam.coarse_rotation", "rad", "half-width of the coarse search in yaw",
                   s.coarse_rotation));
+  r.push_back(ref("slam.surface_max_height", "m", "HVoxels at most this tall count as horizontal surfaces (attitude fit)",
+                  s.surface_max_height));
+  r.push_back(ref("slam.attitude_gate", "m", "farthest a scan surface is paired with the map's (attitude fit)",
+                  s.attitude_gate));
+  r.push_back(ref_int("slam.attitude_iterations", "-", "Gauss-Newton iterations of the attitude fit; 0 = off",
+                      s.attitude_iterations));
+  r.push_back(ref("slam.attitude_min_surfaces", "-", "fewer surface pairs: the attitude keeps its guess",
+                  s.attitude_min_surfaces));
+  r.push_back(ref("slam.attitude_min_lever", "m", "RMS lever arm under which roll or pitch is not observable",
+                  s.attitude_min_lever));
+  r.push_back(ref("slam.level_prior", "-", "pull of the attitude fit toward a level floor (fraction of the map's)",
+                  s.level_prior));
+  r.push_back(ref("slam.max_floor_tilt", "rad", "steepest plane taken for a scan's floor",
+                  s.max_floor_tilt));
   return r;
 }
 
@@ -212,6 +226,18 @@ void validate(const Params& p) {
           s.coarse_trigger_ratio, "in [0, 1]");
   require(s.coarse_translation >= 0.0, "slam.coarse_translation", s.coarse_translation, ">= 0");
   require(s.coarse_rotation >= 0.0, "slam.coarse_rotation", s.coarse_rotation, ">= 0");
+  require(s.surface_max_height > 0.0 && s.surface_max_height <= 5.0, "slam.surface_max_height", s.surface_max_height,
+          "in (0, 5]");
+  require(s.attitude_gate > 0.0 && s.attitude_gate <= 10.0, "slam.attitude_gate", s.attitude_gate, "in (0, 10]");
+  require(s.attitude_iterations >= 0 && s.attitude_iterations <= 100, "slam.attitude_iterations",
+          s.attitude_iterations, "in [0, 100]");
+  require(s.attitude_min_surfaces >= 3.0 && s.attitude_min_surfaces <= 1e6, "slam.attitude_min_surfaces",
+          s.attitude_min_surfaces, "in [3, 1e6]");
+  require(s.attitude_min_lever > 0.0 && s.attitude_min_lever <= 100.0, "slam.attitude_min_lever",
+          s.attitude_min_lever, "in (0, 100]");
+  require(s.level_prior >= 0.0 && s.level_prior <= 100.0, "slam.level_prior", s.level_prior, "in [0, 100]");
+  require(s.max_floor_tilt >= 0.0 && s.max_floor_tilt <= 1.2, "slam.max_floor_tilt", s.max_floor_tilt,
+          "in [0, 1.2]");
 }
 
 }  // namespace hmap

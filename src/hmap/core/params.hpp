@@ -64,7 +64,7 @@ struct SlamParams {
   int max_iterations = 30;                 ///< Gauss-Newton iterations per scan [-]
   double idw_weight = 0.5;                 ///< [-] an IDW-interpolated neighbour (eq. 12) counts this
                                            ///< much of a measured one, so M_H keeps falling off a surface
-  double min_match_height = 0.0;           ///< [m] thinner scan HVoxels (floors, ceilings) do not take part:
+  double min_match_height = 0.3;           ///< [m] thinner scan HVoxels (floors, ceilings) do not take part:
                                            ///< in the plane they only show the rings' pattern, which
                                            ///< moves with the sensor and pulls the match back; 0 = all
   double min_layer_height = 0.2;           ///< [m] shorter intervals are widened to this for eq. (9)
@@ -79,6 +79,18 @@ struct SlamParams {
                                            ///< search; 0 = never
   double coarse_translation = 0.5;         ///< [m] half-width of the coarse search in x and y
   double coarse_rotation = 0.5;            ///< [rad] half-width of the coarse search in yaw
+  // z, roll and pitch from the scans (slam/attitude.hpp), when no attitude is given.
+  double surface_max_height = 0.3;         ///< [m] HVoxels at most this tall (scan and map) count as horizontal
+                                           ///< surfaces for the attitude fit
+  double attitude_gate = 0.5;              ///< [m] farthest a scan surface may be from the map's to be paired,
+                                           ///< at the first iteration (it shrinks to a third)
+  int attitude_iterations = 8;             ///< [-] Gauss-Newton iterations of the attitude fit
+  double attitude_min_surfaces = 30;       ///< [-] fewer pairs: the attitude keeps its guess
+  double attitude_min_lever = 1.0;         ///< [m] RMS lever arm along x (pitch) or y (roll) under which
+                                           ///< that tilt is not observable and keeps its guess
+  double level_prior = 0.02;               ///< [-] pull of the attitude fit toward a level floor, as a fraction
+                                           ///< of the map's tilt information (0 = the map alone)
+  double max_floor_tilt = 0.35;            ///< [rad] steepest plane taken for a scan's floor (~20°)
 };
 
 /// All parameters together.

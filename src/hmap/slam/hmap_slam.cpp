@@ -41,32 +41,99 @@ PlanarPose inverse(const PlanarPose& a) {
 }
 
 HmapSlam::HmapSlam(const Params& params)
-    : params_(params), mapper_(params), matcher_(params), level_hvoxelizer_(params.map) {}
+    : params_(params), mapper_(params), matcher_(params), refiner_(params), level_hvoxelizer_(params.map) {}
 
 PlanarPose HmapSlam::predict() const {
   if (scans_ < 2) return last_;
   return last_ * (inverse(previous_) * last_);
 }
 
-SlamStep HmapSlam::process(std::span<const Point3f> points_sensor, const Attitude& attitude,
+SlamStep HmapSlam::process(std::span<const Point3f> points_sensor, const std::optional<Attitude>& given,
                            const std::optional<PlanarPose>& guess) {
   SlamStep step;
   step.guess = guess.value_or(predict());
   PlanarPose estimate = step.guess;
+  Attitude attitude = given.value_or(last_attitude_);
+  const double cell = params_.map.cell_size;
+  // A tilt change that moves a point 10 m away by a quarter cell, or a height change of a quarter
+  // cell, changes the scan's HVoxels: they are built again.
+  const auto moved = [cell](const Attitude& a, const Attitude& b) {
+    const double tilt = std::max(std::abs(a.roll - b.roll), std::abs(a.pitch - b.pitch));
+    return tilt * 10.0 > 0.25 * cell || std::abs(a.z - b.z) > 0.25 * cell;
+  };
+  bool built = false;
+  std::optional<Eigen::Vector3d> floor_sensor;  // this scan's floor normal in its sensor frame
+  if (!given) {
+    // The tilt that puts this scan's floor normal where the map's floor normal was last seen
+    // (the map's z for the first scan), twice: the thin HVoxels the floor is found from are
+    // sharper once the scan is nearly level.
+    const PlanarPose heading{0.0, 0.0, step.guess.yaw};
+    const Eigen::Vector3d target =
+        scans_ == 0 ? Eigen::Vector3d::UnitZ()
+                    : Eigen::Vector3d(compose(heading, Attitude{}).linear().transpose() * floor_up_);
+    for (int pass = 0; pass < 2; ++pass) {
+      level_hvoxelizer_.build(points_sensor, compose(PlanarPose{}, attitude), scan_level_);
+      built = true;
+      const auto n_level = floor_normal(scan_level_, params_);
+      if (!n_level) break;
+      const Eigen::Vector3d n_sensor = level_rotation(attitude).transpose() * *n_level;
+      floor_sensor = n_sensor;
+      const Attitude next = tilt_aligning(n_sensor, target, attitude);
+      const bool changed = moved(next, attitude);
+      attitude = next;
+      built = !changed;
+      if (!changed) break;
+    }
+  }
+  const auto floor_in_level = [&](const Attitude& a) -> std::optional<Eigen::Vector3d> {
+    if (!floor_sensor) return std::nullopt;
+    return Eigen::Vector3d(level_rotation(a) * *floor_sensor);
+  };
   if (scans_ > 0) {
-    // The scan's HVoxels in the gravity-aligned sensor frame (x = y = yaw = 0), so that eq. (6)
-    // moves them in the plane only.
-    level_hvoxelizer_.build(points_sensor, compose(PlanarPose{}, attitude), scan_level_);
     // The second scan has no motion prior (constant velocity predicts standing still): search.
     const auto search = scans_ == 1 && !guess ? CoarseSearch::kAlways : CoarseSearch::kWhenFailed;
-    step.match = matcher_.match(scan_level_, mapper_.map(), step.guess, search);
+    const auto planar_match = [&](CoarseSearch mode) {
+      // The scan's HVoxels in the gravity-aligned sensor frame (x = y = yaw = 0), so that eq. (6)
+      // moves them in the plane only.
+      if (!built) level_hvoxelizer_.build(points_sensor, compose(PlanarPose{}, attitude), scan_level_);
+      built = false;
+      step.match = matcher_.match(scan_level_, mapper_.map(), estimate, mode,
+                                  scans_ >= 2 && !guess ? std::optional<PlanarPose>(last_) : std::nullopt);
+      estimate = step.match.pose;
+      ++step.planar_passes;
+    };
+    planar_match(search);
     step.matched = true;
-    estimate = step.match.pose;
+    if (!given && !step.match.skipped) {
+      step.attitude = refiner_.refine(scan_level_, mapper_.map(), estimate.x, estimate.y, estimate.yaw, attitude,
+                                      floor_in_level(attitude));
+      const bool again_needed = moved(step.attitude.attitude, attitude);
+      attitude = step.attitude.attitude;
+      estimate.yaw += step.attitude.yaw_change;
+      // The planar match saw the scan at the old tilt: re-level the HVoxels and match again.
+      if (again_needed) {
+        planar_match(CoarseSearch::kWhenFailed);
+        if (!step.match.skipped) {
+          const AttitudeFit again = refiner_.refine(scan_level_, mapper_.map(), estimate.x, estimate.y, estimate.yaw,
+                                                    attitude, floor_in_level(attitude));
+          attitude = again.attitude;
+          estimate.yaw += again.yaw_change;
+          step.attitude = again;
+        }
+      }
+    }
   }
   step.T_map_sensor = compose(estimate, attitude);
+  if (step.matched && !step.match.skipped) {
+    step.observable = {step.match.observable[0], step.match.observable[1], step.attitude.observable[0],
+                       step.attitude.observable[1], step.attitude.observable[2], step.match.observable[2]};
+  }
+  // The floor normal in the map as this scan sees it, for the next scan's tilt prediction.
+  if (floor_sensor) floor_up_ = (step.T_map_sensor.linear() * *floor_sensor).normalized();
   step.mapping = mapper_.integrate(points_sensor, step.T_map_sensor);
   previous_ = scans_ > 0 ? last_ : estimate;
   last_ = estimate;
+  last_attitude_ = attitude;
   ++scans_;
   return step;
 }

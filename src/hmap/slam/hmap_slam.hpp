@@ -6,16 +6,10 @@
 #include <span>
 
 #include "hmap/maps/mapper.hpp"
+#include "hmap/slam/attitude.hpp"
 #include "hmap/slam/scan_matcher.hpp"
 
 namespace hmap::slam {
-
-/// The part of the pose SLAM does not estimate: height and tilt, from an IMU-like source or zero.
-struct Attitude {
-  double z = 0.0;      ///< [m]
-  double roll = 0.0;   ///< [rad] about x
-  double pitch = 0.0;  ///< [rad] about y
-};
 
 /// z, roll and pitch of a pose, with R = Rz(yaw)·Ry(pitch)·Rx(roll).
 [[nodiscard]] Attitude attitude_of(const Pose& T);
@@ -34,6 +28,12 @@ struct SlamStep {
   PlanarPose guess;                      ///< the prediction matching started from
   bool matched = false;                  ///< false for the first scan (it defines the map frame)
   MatchResult match;
+  AttitudeFit attitude;                  ///< the z / roll / pitch fit (attitude.ran false when given)
+  int planar_passes = 0;                 ///< planar matches run (a second after a large attitude change)
+  /// Which of x, y, z, roll, pitch, yaw the scan constrained (the planar match's curvature for x,
+  /// y, yaw; the attitude fit's information for z, roll, pitch). All false for the first scan and
+  /// for a skipped match; z, roll, pitch false when the attitude was given.
+  std::array<bool, 6> observable{false, false, false, false, false, false};
   ScanStats mapping;
 };
 
@@ -46,7 +46,14 @@ class HmapSlam {
   /// Matches `points_sensor` against the map from `guess` (nothing: constant velocity from the
   /// last two estimates), then integrates it at the estimate. The first scan is integrated at
   /// the guess (identity by default).
-  SlamStep process(std::span<const Point3f> points_sensor, const Attitude& attitude,
+  /// `attitude` given (an IMU, reference poses): z, roll and pitch are taken as they are. Not given:
+  /// they are estimated from the scans: the first scan's tilt levels its floor (floor_normal; the
+  /// map's z is that floor's normal); every later scan's tilt is first predicted by turning its
+  /// floor normal onto the map's floor normal last seen (a handheld sensor tilts by 15° between
+  /// scans, more than the map fit can pair), then z, roll and pitch are fitted to the map's
+  /// horizontal surfaces by AttitudeRefiner after the planar match, and the planar match repeated
+  /// once when that moved the attitude by more than a little.
+  SlamStep process(std::span<const Point3f> points_sensor, const std::optional<Attitude>& attitude,
                    const std::optional<PlanarPose>& guess = std::nullopt);
 
   /// The constant-velocity prediction for the next scan: last ⊕ (previous⁻¹ ⊕ last).
@@ -59,6 +66,9 @@ class HmapSlam {
   Params params_;
   Mapper mapper_;
   ScanMatcher matcher_;
+  AttitudeRefiner refiner_;
+  Attitude last_attitude_;
+  Eigen::Vector3d floor_up_ = Eigen::Vector3d::UnitZ();  // the floor's upward normal in the map, last seen
   ScanHVoxelizer level_hvoxelizer_;
   ScanHVoxels scan_level_;
   PlanarPose last_;

@@ -201,6 +201,15 @@ void ScanMatcher::assess_degeneracy(MatchResult& result) {
   }
   const double cmax = result.curvature.maxCoeff();
   result.degenerate = !(cmax > 0.0) || result.curvature.minCoeff() < params_.slam.degeneracy_ratio * cmax;
+  result.directions = eig.eigenvectors();
+  result.observable = {true, true, true};
+  for (int k = 0; k < 3; ++k) {
+    if (cmax > 0.0 && result.curvature(k) >= params_.slam.degeneracy_ratio * cmax) continue;
+    // A weak direction: the axes it mostly points along (|component| above 1/√3) are not observable.
+    for (int a = 0; a < 3; ++a) {
+      if (std::abs(result.directions(a, k)) > 0.577) result.observable[static_cast<std::size_t>(a)] = false;
+    }
+  }
 }
 
 MatchResult ScanMatcher::gauss_newton(const PlanarPose& guess) {
@@ -311,7 +320,7 @@ std::vector<PlanarPose> ScanMatcher::coarse_search(const PlanarPose& guess) {
 }
 
 MatchResult ScanMatcher::match(const ScanHVoxels& scan_level, const HMap& map, const PlanarPose& guess,
-                               CoarseSearch search) {
+                               CoarseSearch search, const std::optional<PlanarPose>& alternative) {
   select(scan_level);
   if (candidates_.size() < kMinHVoxels) {
     // Too few to hold three degrees of freedom: a kerb or a pedestrian alone snaps the pose by
@@ -337,7 +346,11 @@ MatchResult ScanMatcher::match(const ScanHVoxels& scan_level, const HMap& map, c
   if (failed && ratio > 0.0) {
     const int iterations = result.iterations;
     const double initial_cost = result.initial_cost;
-    for (const PlanarPose& start : coarse_search(guess)) {
+    std::vector<PlanarPose> starts = coarse_search(guess);
+    if (alternative) {
+      for (const PlanarPose& start : coarse_search(*alternative)) starts.push_back(start);
+    }
+    for (const PlanarPose& start : starts) {
       MatchResult retry = gauss_newton(start);
       if (retry.final_cost < result.final_cost) result = retry;
     }

@@ -4,6 +4,7 @@
 #include <Eigen/Core>
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "hmap/core/params.hpp"
@@ -37,6 +38,11 @@ struct MatchResult {
   /// Curvature of eq. (5) per HVoxel along the three eigenvectors (same order), by central
   /// differences one cell wide: the information that survives averaging over the HVoxels.
   Eigen::Vector3d curvature = Eigen::Vector3d::Zero();
+  /// The eigenvectors the curvatures are taken along (columns, in (m, m, rad·RMS radius)).
+  Eigen::Matrix3d directions = Eigen::Matrix3d::Identity();
+  /// x, y, yaw observable: false for an axis that a direction of too little curvature (under
+  /// slam.degeneracy_ratio of the largest) mostly points along (a corridor: the axis along it).
+  std::array<bool, 3> observable{true, true, true};
   bool degenerate = false;         ///< smallest / largest curvature < slam.degeneracy_ratio
   bool coarse_search = false;      ///< the coarse search ran (Gauss-Newton looked failed)
   /// Fewer than ScanMatcher::kMinHVoxels were selected: no matching, `pose` is the guess
@@ -65,8 +71,12 @@ class ScanMatcher {
   /// minimises eq. (5) from `guess`. `scan_level` is the scan's HVoxel representation in the
   /// gravity-aligned sensor frame (z, roll and pitch applied; x = y = yaw = 0): its cell centres
   /// are the v_x, v_y of eq. (6). Fewer than kMinHVoxels selected: the guess is returned, skipped.
+  /// `alternative` (the last pose, when the guess extrapolates a motion): a second centre of the
+  /// coarse search. A handheld sensor's turn rate changes sign from one scan to the next, so
+  /// constant velocity can be farther off than no motion at all.
   [[nodiscard]] MatchResult match(const ScanHVoxels& scan_level, const HMap& map, const PlanarPose& guess,
-                                  CoarseSearch search = CoarseSearch::kWhenFailed);
+                                  CoarseSearch search = CoarseSearch::kWhenFailed,
+                                  const std::optional<PlanarPose>& alternative = std::nullopt);
 
   /// eq. (5) per HVoxel at ξ for the HVoxels selected by the last match() (for tests and tools).
   [[nodiscard]] double cost_at(const PlanarPose& pose);

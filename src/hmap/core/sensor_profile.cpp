@@ -1,0 +1,86 @@
+#include "hmap/core/sensor_profile.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <numbers>
+
+namespace hmap {
+
+SensorProfile profile_scan(std::span<const Point3f> points_sensor) {
+  SensorProfile out;
+  constexpr std::size_t kMaxPoints = 200000;
+  const std::size_t stride = std::max<std::size_t>(1, points_sensor.size() / kMaxPoints);
+  constexpr double kBin = 0.05 * std::numbers::pi / 180.0;
+  constexpr int kBins = static_cast<int>(std::numbers::pi / kBin) + 2;
+  std::vector<std::uint32_t> hist(static_cast<std::size_t>(kBins), 0);
+  std::vector<float> ranges;
+  std::size_t far = 0;
+  for (std::size_t k = 0; k < points_sensor.size(); k += stride) {
+    const Point3f& q = points_sensor[k];
+    if (!q.allFinite()) continue;
+    const double h = std::hypot(static_cast<double>(q.x()), static_cast<double>(q.y()));
+    const double r = std::hypot(h, static_cast<double>(q.z()));
+    ++out.points;
+    ranges.push_back(static_cast<float>(r));
+    if (r < 5.0) continue;
+    const double elevation = std::atan2(static_cast<double>(q.z()), h);  // in [−π/2, π/2]
+    const auto bin = static_cast<std::size_t>(std::clamp(
+        static_cast<int>((elevation + 0.5 * std::numbers::pi) / kBin), 0, kBins - 1));
+    ++hist[bin];
+    ++far;
+  }
+  if (!ranges.empty()) {
+    const auto p95 = ranges.begin() + static_cast<std::ptrdiff_t>(0.95 * static_cast<double>(ranges.size() - 1));
+    std::nth_element(ranges.begin(), p95, ranges.end());
+    out.range_p95 = *p95;
+  }
+  if (far < 1000) return out;
+  // Rings: runs of populated bins, each at its count-weighted centre.
+  const double min_count = std::max(3.0, 0.001 * static_cast<double>(far));
+  std::vector<double> centres;
+  std::size_t populated = 0;
+  double sum = 0.0;
+  double weighted = 0.0;
+  for (int b = 0; b <= kBins; ++b) {
+    const double c = b < kBins ? static_cast<double>(hist[static_cast<std::size_t>(b)]) : 0.0;
+    if (c >= min_count) {
+      sum += c;
+      weighted += c * (b + 0.5);
+      ++populated;
+    } else if (sum > 0.0) {
+      centres.push_back(weighted / sum * kBin);
+      sum = 0.0;
+      weighted = 0.0;
+    }
+  }
+  if (centres.size() < 4) return out;
+  const double span_bins = (centres.back() - centres.front()) / kBin + 1.0;
+  if (static_cast<double>(populated) >= 0.5 * span_bins) return out;
+  std::vector<double> steps;
+  for (std::size_t k = 1; k < centres.size(); ++k) steps.push_back(centres[k] - centres[k - 1]);
+  std::nth_element(steps.begin(), steps.begin() + static_cast<std::ptrdiff_t>(steps.size() / 2), steps.end());
+  // Steps under four bins are the bins' own pattern (a depth camera's 0.1° rows), not rings.
+  if (steps[steps.size() / 2] < 4.0 * kBin) return out;
+  out.rings = static_cast<int>(centres.size());
+  out.ring_spacing = steps[steps.size() / 2];
+  return out;
+}
+
+std::vector<ChosenDefault> adapt_to_sensor(Params& p, const Params& preset_params, const SensorProfile& sensor) {
+  std::vector<ChosenDefault> chosen;
+  if (sensor.rings > 0 && p.map.point_distance_threshold == preset_params.map.point_distance_threshold) {
+    const double gap = sensor.ring_spacing * p.map.max_range;
+    const double value = std::clamp(gap, preset_params.map.point_distance_threshold, 1.0);
+    char reason[160];
+    std::snprintf(reason, sizeof reason, "%d rings %.2f deg apart: %.2f m between rings at the %.0f m range limit",
+                  sensor.rings, sensor.ring_spacing * 180.0 / std::numbers::pi, gap, p.map.max_range);
+    const double rounded = std::round(value * 100.0) / 100.0;
+    if (rounded == p.map.point_distance_threshold) return chosen;
+    p.map.point_distance_threshold = rounded;
+    chosen.push_back({"map.point_distance_threshold", p.map.point_distance_threshold, reason});
+  }
+  return chosen;
+}
+
+}  // namespace hmap

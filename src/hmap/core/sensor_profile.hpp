@@ -1,0 +1,45 @@
+#pragma once
+// What a scan tells about its sensor, and the defaults chosen from it: a spinning LiDAR's ring
+// spacing sets the height gap that keeps a far wall one HVoxel (map.point_distance_threshold).
+
+#include <span>
+#include <string>
+#include <vector>
+
+#include "hmap/core/params.hpp"
+#include "hmap/core/types.hpp"
+
+namespace hmap {
+
+/// The sensor as one scan shows it.
+struct SensorProfile {
+  std::size_t points = 0;           ///< finite points looked at (at most 200,000, evenly thinned)
+  int rings = 0;                    ///< distinct elevation rings found (0: not ring-structured, e.g. RGB-D)
+  double ring_spacing = 0.0;        ///< [rad] median elevation step between neighbouring rings; 0 if no rings
+  double range_p95 = 0.0;           ///< [m] 95th percentile of the points' range
+};
+
+/// Elevations atan2(z, √(x²+y²)) of the points farther than 5 m (nearer, the beams' offset from
+/// the sensor origin blurs the rings), in 0.05° bins; runs of bins holding at least 0.1 % of the
+/// points are rings. Ring-structured when at least 4 rings fill under half of the elevation span
+/// they cover (a depth camera's or sweeping laser's elevations fill it) and are at least 0.2° apart.
+[[nodiscard]] SensorProfile profile_scan(std::span<const Point3f> points_sensor);
+
+/// One default chosen from the data, for the summary.
+struct ChosenDefault {
+  std::string name;
+  double value = 0.0;
+  std::string reason;
+};
+
+/// Adapts `p` to the sensor, for parameters still at their value in `preset_params` (a value the
+/// user set, even to the preset's, is the user's when it differs; equal values are taken as unset):
+/// Returns what it changed.
+/// - map.point_distance_threshold = ring spacing × map.max_range (clamped to [preset, 1 m]): two
+///   neighbouring rings on a wall at the far end of the range are that far apart, and a larger
+///   gap than the preset's 0.4 m keeps such a wall one HVoxel instead of one per ring (a VLP-16's
+///   2° rings on a wall past 11.5 m).
+[[nodiscard]] std::vector<ChosenDefault> adapt_to_sensor(Params& p, const Params& preset_params,
+                                                         const SensorProfile& sensor);
+
+}  // namespace hmap

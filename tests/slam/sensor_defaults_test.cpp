@@ -1,0 +1,90 @@
+// Defaults chosen from the first scan (core/sensor_profile.hpp), asserted for simulated VLP-16,
+// HDL-64 and OS0-64 scans and a depth camera; here because the scans come from hmap::sim.
+
+#include "hmap/core/sensor_profile.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "hmap/sim/builtin_scenes.hpp"
+#include "hmap/sim/sensors.hpp"
+
+namespace hmap {
+namespace {
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+
+PointCloud scan_of(const sim::SpinningLidarParams& lidar) {
+  const sim::Scene scene = sim::make_parking_scene();
+  sim::SpinningLidar sensor(lidar);
+  // On the street, among the parked cars and walls (the route's midpoint).
+  const auto route = sim::parking_car_route();
+  Pose T = Pose::Identity();
+  T.translation() = route[route.size() / 2] + Eigen::Vector3d(0.0, 0.0, 1.8);
+  return sensor.scan(scene, T, 0.0).points_sensor;
+}
+
+TEST(SensorDefaults, Vlp16RingsWidenTheHeightGap) {
+  // 16 rings 2° apart: at the outdoor preset's 25 m, neighbouring rings are 0.87 m apart on a wall.
+  const SensorProfile s = profile_scan(scan_of(sim::SpinningLidarParams::vlp16()));
+  EXPECT_GE(s.rings, 12);
+  EXPECT_LE(s.rings, 16);
+  EXPECT_NEAR(s.ring_spacing, 2.0 * kDeg, 0.05 * kDeg);
+  Params p = outdoor_preset();
+  const auto chosen = adapt_to_sensor(p, outdoor_preset(), s);
+  ASSERT_EQ(chosen.size(), 1U);
+  EXPECT_EQ(chosen[0].name, "map.point_distance_threshold");
+  EXPECT_NEAR(p.map.point_distance_threshold, 0.87, 0.01);
+}
+
+TEST(SensorDefaults, Hdl64KeepsThePapersGap) {
+  // Rings 1/3°–1/2° apart: 0.15–0.22 m at 25 m, under the paper's 0.4 m, which stays.
+  const SensorProfile s = profile_scan(scan_of(sim::SpinningLidarParams::hdl64e()));
+  EXPECT_GE(s.rings, 30);
+  EXPECT_GT(s.ring_spacing, 0.3 * kDeg);
+  EXPECT_LT(s.ring_spacing, 0.55 * kDeg);
+  Params p = outdoor_preset();
+  (void)adapt_to_sensor(p, outdoor_preset(), s);
+  EXPECT_DOUBLE_EQ(p.map.point_distance_threshold, outdoor_preset().map.point_distance_threshold);
+}
+
+TEST(SensorDefaults, Os0SixtyFourRings) {
+  // An OS0-64: 64 rings over ±45° (1.43° apart): 0.62 m at 25 m.
+  sim::SpinningLidarParams os0 = sim::SpinningLidarParams::vlp16();
+  os0.elevations_deg.clear();
+  for (int k = 0; k < 64; ++k) os0.elevations_deg.push_back(-45.0 + 90.0 * k / 63.0);
+  os0.azimuth_step_deg = 0.35;
+  const SensorProfile s = profile_scan(scan_of(os0));
+  EXPECT_NEAR(s.ring_spacing, 90.0 / 63.0 * kDeg, 0.05 * kDeg);
+  Params p = outdoor_preset();
+  (void)adapt_to_sensor(p, outdoor_preset(), s);
+  EXPECT_NEAR(p.map.point_distance_threshold, 0.62, 0.02);
+  // A value the user set is theirs.
+  Params mine = outdoor_preset();
+  mine.map.point_distance_threshold = 0.5;
+  EXPECT_TRUE(adapt_to_sensor(mine, outdoor_preset(), s).empty());
+  EXPECT_DOUBLE_EQ(mine.map.point_distance_threshold, 0.5);
+}
+
+TEST(SensorDefaults, NoRingsNoChange) {
+  // Elevations that fill their span (a depth camera, a sweeping laser), too few points, nothing.
+  PointCloud dense;
+  for (int i = 0; i < 400; ++i) {
+    for (int j = 0; j < 100; ++j) {
+      const double el = (-20.0 + 40.0 * i / 399.0) * kDeg;
+      const double az = (-30.0 + 60.0 * j / 99.0) * kDeg;
+      dense.emplace_back(static_cast<float>(8.0 * std::cos(el) * std::cos(az)),
+                         static_cast<float>(8.0 * std::cos(el) * std::sin(az)), static_cast<float>(8.0 * std::sin(el)));
+    }
+  }
+  EXPECT_EQ(profile_scan(dense).rings, 0);
+  EXPECT_EQ(profile_scan(PointCloud{}).rings, 0);
+  EXPECT_EQ(profile_scan(PointCloud(10, Point3f(NAN, 0.0F, 0.0F))).points, 0U);
+  Params p = outdoor_preset();
+  EXPECT_TRUE(adapt_to_sensor(p, outdoor_preset(), profile_scan(dense)).empty());
+}
+
+}  // namespace
+}  // namespace hmap
