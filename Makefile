@@ -17,7 +17,7 @@ DEBS := cmake ninja-build g++ pkg-config libeigen3-dev libnanoflann-dev libtbb-d
         librosbag-dev libsensor-msgs-dev libnav-msgs-dev libtf2-msgs-dev python3-rosbag python3-sensor-msgs \
         python3-nav-msgs python3-tf2-msgs clang libclang-rt-14-dev
 
-.PHONY: all deps build demo demo-real test test-sanitize bench clean fuzz-ci test-tsan
+.PHONY: all deps build demo demo-real test test-sanitize bench bench-slam clean fuzz-ci test-tsan
 
 all: build
 
@@ -52,6 +52,14 @@ demo-real: build
 
 test: build
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
+
+# hmap slam with its defaults beside Debian's Open3D ICP and KISS-ICP (built from ../shared/peers
+# when it is there) on the same sequences: ATE / RPE and timings per system (bench/slam_peers.py).
+PEER_DEBS := python3-open3d python3-numpy robin-map-dev
+bench-slam: build
+	@missing=$$(for p in $(PEER_DEBS); do dpkg-query -W -f='$${Status}\n' $$p 2>/dev/null | grep -q '^install ok installed' || echo $$p; done); \
+	if [ -n "$$missing" ]; then apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $$missing; fi
+	/usr/bin/python3 bench/slam_peers.py --hmap $(BUILD)/bin/hmap --data $(DATA) --peers $(abspath ../shared/peers)
 
 # The same suite under AddressSanitizer and UndefinedBehaviorSanitizer.
 test-sanitize: deps
