@@ -106,6 +106,8 @@ std::optional<Eigen::Vector3d> floor_normal(const ScanHVoxels& scan_sensor, cons
   Eigen::Vector3d best_n = Eigen::Vector3d::UnitZ();
   double best_d = 0.0;
   constexpr int kSamples = 300;
+  // Hypotheses are scored on at most 1500 samples, evenly thinned; the refit uses them all.
+  const std::size_t score_stride = std::max<std::size_t>(1, pts.size() / 1500);
   for (int it = 0; it < kSamples; ++it) {
     const Eigen::Vector3d& a = pts[rng.below(pts.size())];
     const Eigen::Vector3d& b = pts[rng.below(pts.size())];
@@ -118,7 +120,7 @@ std::optional<Eigen::Vector3d> floor_normal(const ScanHVoxels& scan_sensor, cons
     if (n.z() < cos_max) continue;
     const double d = n.dot(a);
     std::size_t count = 0;
-    for (const auto& p : pts) count += std::abs(n.dot(p) - d) <= tolerance ? 1 : 0;
+    for (std::size_t k = 0; k < pts.size(); k += score_stride) count += std::abs(n.dot(pts[k]) - d) <= tolerance ? 1 : 0;
     // Ties go to the lower plane: a floor, not a table top above it.
     if (count > best || (count == best && d < best_d)) {
       best = count;
@@ -126,7 +128,7 @@ std::optional<Eigen::Vector3d> floor_normal(const ScanHVoxels& scan_sensor, cons
       best_d = d;
     }
   }
-  if (best < min_inliers) return std::nullopt;
+  if (best * score_stride < min_inliers) return std::nullopt;
   for (const double tol : {tolerance, 0.5 * tolerance, 0.05}) {
     if (refit_plane(pts, tol, best_n, best_d) < min_inliers) return std::nullopt;
   }
@@ -158,6 +160,13 @@ AttitudeFit AttitudeRefiner::refine(const ScanHVoxels& scan_level, const HMap& m
   }
   const auto min_pairs = static_cast<std::size_t>(sp.attitude_min_surfaces);
   if (samples_.size() < min_pairs) return fit;
+  // At most kMaxSamples, evenly thinned: 4000 surfaces hold three parameters with room to spare.
+  constexpr std::size_t kMaxSamples = 4000;
+  if (samples_.size() > kMaxSamples) {
+    const double every = static_cast<double>(samples_.size()) / static_cast<double>(kMaxSamples);
+    for (std::size_t k = 0; k < kMaxSamples; ++k) samples_[k] = samples_[static_cast<std::size_t>(static_cast<double>(k) * every)];
+    samples_.resize(kMaxSamples);
+  }
 
   const double c = std::cos(yaw);
   const double sn = std::sin(yaw);

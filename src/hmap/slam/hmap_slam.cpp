@@ -54,12 +54,12 @@ SlamStep HmapSlam::process(std::span<const Point3f> points_sensor, const std::op
   step.guess = guess.value_or(predict());
   PlanarPose estimate = step.guess;
   Attitude attitude = given.value_or(last_attitude_);
-  const double cell = params_.map.cell_size;
-  // A tilt change that moves a point 10 m away by a quarter cell, or a height change of a quarter
-  // cell, changes the scan's HVoxels: they are built again.
-  const auto moved = [cell](const Attitude& a, const Attitude& b) {
+  // A tilt change that moves a point 10 m away by half the IoU layer (slam.min_layer_height), or a
+  // height change of as much, changes what the planar match sees: the HVoxels are built again.
+  const double layer = 0.5 * params_.slam.min_layer_height;
+  const auto moved = [layer](const Attitude& a, const Attitude& b) {
     const double tilt = std::max(std::abs(a.roll - b.roll), std::abs(a.pitch - b.pitch));
-    return tilt * 10.0 > 0.25 * cell || std::abs(a.z - b.z) > 0.25 * cell;
+    return tilt * 10.0 > layer || std::abs(a.z - b.z) > layer;
   };
   bool built = false;
   std::optional<Eigen::Vector3d> floor_sensor;  // this scan's floor normal in its sensor frame
@@ -98,7 +98,8 @@ SlamStep HmapSlam::process(std::span<const Point3f> points_sensor, const std::op
       if (!built) level_hvoxelizer_.build(points_sensor, compose(PlanarPose{}, attitude), scan_level_);
       built = false;
       step.match = matcher_.match(scan_level_, mapper_.map(), estimate, mode,
-                                  scans_ >= 2 && !guess ? std::optional<PlanarPose>(last_) : std::nullopt);
+                                  scans_ >= 2 && !guess ? std::optional<PlanarPose>(last_) : std::nullopt,
+                                  /*thin_fallback=*/!guess);
       estimate = step.match.pose;
       ++step.planar_passes;
     };

@@ -45,13 +45,12 @@ struct Projection {
 
 ScanMatcher::ScanMatcher(const Params& params) : params_(params), interpolator_((validate(params), params)) {}
 
-void ScanMatcher::select(const ScanHVoxels& scan_level) {
+void ScanMatcher::select(const ScanHVoxels& scan_level, float min_match) {
   // "Height-Voxel Selection": only HVoxels whose density reaches n_th take part.
   candidates_.clear();
   const double s = params_.map.cell_size;
   const auto n_th = static_cast<float>(params_.map.density_threshold);
   const auto min_height = static_cast<float>(params_.slam.min_layer_height);
-  const auto min_match = static_cast<float>(params_.slam.min_match_height);
   std::size_t eligible = 0;
   for (const ScanCell& cell : scan_level.cells) {
     for (const HVoxel& v : scan_level.hvoxels_of(cell)) eligible += v.density >= n_th && v.height() >= min_match ? 1 : 0;
@@ -320,8 +319,10 @@ std::vector<PlanarPose> ScanMatcher::coarse_search(const PlanarPose& guess) {
 }
 
 MatchResult ScanMatcher::match(const ScanHVoxels& scan_level, const HMap& map, const PlanarPose& guess,
-                               CoarseSearch search, const std::optional<PlanarPose>& alternative) {
-  select(scan_level);
+                               CoarseSearch search, const std::optional<PlanarPose>& alternative,
+                               bool thin_fallback) {
+  select(scan_level, static_cast<float>(params_.slam.min_match_height));
+  if (candidates_.size() < kMinHVoxels && thin_fallback && params_.slam.min_match_height > 0.0) select(scan_level, 0.0F);
   if (candidates_.size() < kMinHVoxels) {
     // Too few to hold three degrees of freedom: a kerb or a pedestrian alone snaps the pose by
     // degrees. The guess (odometry or constant velocity) is kept.

@@ -71,12 +71,17 @@ class ScanMatcher {
   /// minimises eq. (5) from `guess`. `scan_level` is the scan's HVoxel representation in the
   /// gravity-aligned sensor frame (z, roll and pitch applied; x = y = yaw = 0): its cell centres
   /// are the v_x, v_y of eq. (6). Fewer than kMinHVoxels selected: the guess is returned, skipped.
+  /// `thin_fallback`: with fewer than kMinHVoxels at least slam.min_match_height tall, match with
+  /// all of them (floors and kerbs included) instead of keeping the guess. For a guess that is only
+  /// constant velocity: blind, it drove straight through a U-turn at the empty end of the parking's
+  /// side road; with odometry keeping the guess is better (docs/SLAM.md).
   /// `alternative` (the last pose, when the guess extrapolates a motion): a second centre of the
   /// coarse search. A handheld sensor's turn rate changes sign from one scan to the next, so
   /// constant velocity can be farther off than no motion at all.
   [[nodiscard]] MatchResult match(const ScanHVoxels& scan_level, const HMap& map, const PlanarPose& guess,
                                   CoarseSearch search = CoarseSearch::kWhenFailed,
-                                  const std::optional<PlanarPose>& alternative = std::nullopt);
+                                  const std::optional<PlanarPose>& alternative = std::nullopt,
+                                  bool thin_fallback = false);
 
   /// eq. (5) per HVoxel at ξ for the HVoxels selected by the last match() (for tests and tools).
   [[nodiscard]] double cost_at(const PlanarPose& pose);
@@ -95,7 +100,7 @@ class ScanMatcher {
     double score = 0.0;  // Σ M_H
   };
 
-  void select(const ScanHVoxels& scan_level);
+  void select(const ScanHVoxels& scan_level, float min_match);
   Linearization linearize(const PlanarPose& pose, std::size_t stride);
   /// The cost of linearize(pose, stride) (same terms, same order), without touching the cached
   /// F values: poses can be scored in parallel.
