@@ -101,6 +101,9 @@ void run_slam(const SlamOptions& o) {
 
   std::filesystem::create_directories(o.out);
   slam::HmapSlam slam(params);
+  // The first scan defines the map frame; with a reference it starts at the reference's first
+  // pose (x, y, yaw below; its height here), so that ATE needs no alignment.
+  if (!attitude && (odometry || truth)) slam.start_at_height(slam::attitude_of(odometry ? odometry->front() : truth->front()).z);
   PoseList estimate;
   double ms_total = 0.0;
   std::size_t converged = 0;

@@ -56,6 +56,10 @@ class HmapSlam {
   SlamStep process(std::span<const Point3f> points_sensor, const std::optional<Attitude>& attitude,
                    const std::optional<PlanarPose>& guess = std::nullopt);
 
+  /// The height the first scan is put at when its attitude is estimated (default 0: the map frame
+  /// starts at the sensor). Call before the first process().
+  void start_at_height(double z) { last_attitude_.z = z; }
+
   /// The constant-velocity prediction for the next scan: last ⊕ (previous⁻¹ ⊕ last).
   [[nodiscard]] PlanarPose predict() const;
 
