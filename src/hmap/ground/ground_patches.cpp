@@ -151,6 +151,19 @@ constexpr double kMaxRmsFactor = 0.25;
 constexpr double kMinSpacing = 0.5;
 /// Start-patch candidates tried after the hint itself (cells of the chosen histogram bin).
 constexpr std::size_t kMaxSeedTries = 16;
+/// The ground the sensor stands on is the lowest *extensive* surface below it: the start height is
+/// the lowest bin covering at least this share of the most extensive bin's cells. Counting cells
+/// (area), not HVoxels, keeps a wall's or a car body's stack of tops from outvoting the floor.
+constexpr double kMinSeedAreaShare = 0.5;
+/// A neighbourhood is used only when its chosen bin covers at least this many patch windows: the
+/// first few cells around a sensor are its own mount, the car's body or a table edge, not ground.
+constexpr double kMinSeedWindows = 2.0;
+/// The tracker has lost the ground when no patch lies within this many d_n of the sensor (a bit
+/// over the blind footprint of a spinning LiDAR at car height: 3.7 m for an HDL-64 at 1.73 m, 8 d_n
+/// = 7.2 m outdoors; 3.2 m indoors, where a camera at 1.5 m sees the floor from about 1 m on).
+constexpr double kLostRadius = 8.0;
+/// Directions tried around a root for a neighbour (see supported()).
+constexpr int kSupportDirections = 16;
 /// The neighbourhood of the hint doubles up to this many times d_n while it holds no HVoxel.
 constexpr double kMaxHistogramRadius = 16.0;
 
@@ -204,10 +217,11 @@ class PatchExplorer {
   /// and a root is seeded under the hint only when no patch lies within d_n of it yet.
   GroundResult grow(const Eigen::Vector3d& hint, double reach) {
     GroundResult result;
-    if (!model_.any_within(hint.x(), hint.y(), reach)) {
-      if (!seed(hint)) return result;
-      result.seeded = true;
-    }
+    // Recovery: a tree that is far from the sensor (never reached this part of the map, or lost
+    // it behind a door or a ramp) gets a new root from the footprint under the sensor.
+    const bool lost = !model_.any_within(hint.x(), hint.y(), std::min(reach, kLostRadius * params_.expansion_distance));
+    if (lost && seed(hint)) result.seeded = true;
+    if (model_.empty()) return result;
     search_center_ = hint.head<2>();
     search_half_extent_ = reach;
     iterate(params_.iterations, /*follow_tree=*/false, result);
@@ -293,9 +307,17 @@ class PatchExplorer {
         }
       });
       if (bins.empty()) return std::nullopt;
+      std::size_t widest = 0;
+      for (const auto& [index, bin] : bins) widest = std::max(widest, bin.cells.size());
+      const double s_cell = map_.cell_size();
+      const double window_cells = std::pow(2.0 * window_ / s_cell, 2.0);
+      if (static_cast<double>(widest) < kMinSeedWindows * window_cells) return std::nullopt;
       const Bin* best = nullptr;
-      for (const auto& [index, bin] : bins) {  // ascending heights: ties keep the lowest
-        if (best == nullptr || bin.count > best->count) best = &bin;
+      for (const auto& [index, bin] : bins) {  // ascending heights: the lowest extensive bin
+        if (static_cast<double>(bin.cells.size()) >= kMinSeedAreaShare * static_cast<double>(widest)) {
+          best = &bin;
+          break;
+        }
       }
       Start start{{hint.x(), hint.y(), best->sum / best->count}, best->cells};
       // Fallback roots: the bin's cells whose window holds most cells of the bin, nearest first
@@ -336,8 +358,9 @@ class PatchExplorer {
     candidates.insert(candidates.end(), start.fallbacks.begin(), start.fallbacks.end());
     for (const Eigen::Vector2d& xy : candidates) {
       const GroundPatch reference = horizontal_patch({xy.x(), xy.y(), start.p0.z()}, window_);
+      if (model_.any_within(xy.x(), xy.y(), kMinSpacing * params_.expansion_distance)) continue;
       auto root = patch_generation(get_height_points(xy, reference), xy);
-      if (root && std::abs(root->center.z() - start.p0.z()) <= params_.elevation_threshold) {
+      if (root && std::abs(root->center.z() - start.p0.z()) <= params_.elevation_threshold && supported(*root)) {
         add_node(*root);
         search_center_ = xy;
         search_half_extent_ = 2.0 * params_.expansion_distance;
@@ -435,7 +458,10 @@ class PatchExplorer {
     if (qr.rank() < 3) return std::nullopt;
     const Eigen::Vector3d abc = qr.solve(z);
     const double rms = std::sqrt((A * abc - z).squaredNorm() / static_cast<double>(n));
-    if (!(rms <= kMaxRmsFactor * params_.elevation_threshold)) return std::nullopt;
+    // The tops' own noise adds in quadrature to what a step leaves: without it a floor seen by a
+    // depth camera (σ of 1-2 cm at 2-3 m) fails the indoor E_th / 4 = 12.5 mm test.
+    const double step_rms = kMaxRmsFactor * params_.elevation_threshold;
+    if (!(rms <= std::hypot(step_rms, params_.top_noise))) return std::nullopt;
     const Eigen::Vector3d normal = Eigen::Vector3d(-abc.x(), -abc.y(), 1.0).normalized();
     return GroundPatch{{center.x(), center.y(), abc.z()}, normal, window_, -1};
   }
@@ -447,6 +473,21 @@ class PatchExplorer {
     const double elevation_gap =
         std::abs(p_local.center.z() - node.height_at(p_local.center.x(), p_local.center.y()));
     return normal_gap <= params_.normal_threshold && elevation_gap <= params_.elevation_threshold;
+  }
+
+  /// A root must be part of an extensive surface: one of the patches a step d_n away (in
+  /// kSupportDirections directions) fits and connects to it, as Alg. 4's first expansion would.
+  /// A table top or a car roof smaller than d_n has no such neighbour; a scan ring on the ground
+  /// has one along its tangent (hence the fine angular steps: the rings of a VLP-16 lie > d_n apart).
+  bool supported(const GroundPatch& root) const {
+    const double d_n = params_.expansion_distance;
+    for (int k = 0; k < kSupportDirections; ++k) {
+      const double angle = 2.0 * M_PI * k / kSupportDirections;
+      const Eigen::Vector2d xy = root.center.head<2>() + d_n * Eigen::Vector2d(std::cos(angle), std::sin(angle));
+      const auto neighbour = patch_generation(get_height_points(xy, root), xy);
+      if (neighbour && connects(*neighbour, root)) return true;
+    }
+    return false;
   }
 
   /// Line 15: the nodes within d_n of x_expansion, nearest first.
