@@ -155,9 +155,11 @@ constexpr std::size_t kMaxSeedTries = 16;
 /// the lowest bin covering at least this share of the most extensive bin's cells. Counting cells
 /// (area), not HVoxels, keeps a wall's or a car body's stack of tops from outvoting the floor.
 constexpr double kMinSeedAreaShare = 0.5;
-/// A neighbourhood is used only when its chosen bin covers at least this many patch windows: the
-/// first few cells around a sensor are its own mount, the car's body or a table edge, not ground.
-constexpr double kMinSeedWindows = 2.0;
+/// A neighbourhood is used only when its widest bin covers at least this many patch windows of
+/// cells: the first few cells around a sensor are its own mount, the car's body or a table edge,
+/// not ground. When no neighbourhood has that much, one window will do (the floor of a small
+/// enclosure, sim `boxes`: 2 m x 3 m).
+constexpr double kMinSeedWindows[] = {2.0, 1.0};
 /// The tracker has lost the ground when no patch lies within this many d_n of the sensor (a bit
 /// over the blind footprint of a spinning LiDAR at car height: 3.7 m for an HDL-64 at 1.73 m, 8 d_n
 /// = 7.2 m outdoors; 3.2 m indoors, where a camera at 1.5 m sees the floor from about 1 m on).
@@ -233,10 +235,12 @@ class PatchExplorer {
   /// root that fits. Around a sensor the nearest neighbourhoods hold only the inner rim of the
   /// range hole, where no plane fits.
   bool seed(const Eigen::Vector3d& hint) {
-    for (double radius = params_.expansion_distance; radius <= kMaxHistogramRadius * params_.expansion_distance;
-         radius *= 2.0) {
-      const auto start = neighborhood_histogram(hint, radius);
-      if (start && initialize_tree(*start)) return true;
+    for (const double min_windows : kMinSeedWindows) {
+      for (double radius = params_.expansion_distance; radius <= kMaxHistogramRadius * params_.expansion_distance;
+           radius *= 2.0) {
+        const auto start = neighborhood_histogram(hint, radius, min_windows);
+        if (start && initialize_tree(*start)) return true;
+      }
     }
     return false;
   }
@@ -285,9 +289,10 @@ class PatchExplorer {
     std::vector<Eigen::Vector2d> fallbacks;  ///< cells of that bin, nearest to the hint first
   };
 
-  /// Line 2: histogram of the HVoxel tops below the hint in the cells within `radius`, in bins of E_th;
-  /// the most populated bin (the lowest on ties) gives the start height.
-  std::optional<Start> neighborhood_histogram(const Eigen::Vector3d& hint, double radius) const {
+  /// Line 2: histogram of the HVoxel tops below the hint in the cells within `radius`, in bins of
+  /// E_th; the lowest bin covering half the widest bin's cells gives the start height; none when
+  /// the widest bin covers fewer than `min_windows` patch windows of cells.
+  std::optional<Start> neighborhood_histogram(const Eigen::Vector3d& hint, double radius, double min_windows) const {
     struct Bin {
       int count = 0;
       double sum = 0.0;
@@ -311,7 +316,7 @@ class PatchExplorer {
       for (const auto& [index, bin] : bins) widest = std::max(widest, bin.cells.size());
       const double s_cell = map_.cell_size();
       const double window_cells = std::pow(2.0 * window_ / s_cell, 2.0);
-      if (static_cast<double>(widest) < kMinSeedWindows * window_cells) return std::nullopt;
+      if (static_cast<double>(widest) < min_windows * window_cells) return std::nullopt;
       const Bin* best = nullptr;
       for (const auto& [index, bin] : bins) {  // ascending heights: the lowest extensive bin
         if (static_cast<double>(bin.cells.size()) >= kMinSeedAreaShare * static_cast<double>(widest)) {
