@@ -29,9 +29,15 @@ struct ExportOptions {
   double z_step = 0.0;
 };
 
-std::pair<std::size_t, std::size_t> count_classes(const OccupancyGrid& grid) {
+/// Occupied and free cells as the written PGM holds them: with the file's own thresholds
+/// (map_server's 0.65 / 0.196), not at p = 0.5; cells in between are unknown in the file.
+std::pair<std::size_t, std::size_t> count_classes(const OccupancyGrid& grid, const PgmExportParams& pgm = {}) {
   std::size_t occupied = 0, free_cells = 0;
-  grid.for_each_cell([&](const CellKey&, float l) { (l > 0.0F ? occupied : free_cells) += 1; });
+  grid.for_each_cell([&](const CellKey&, float l) {
+    const double p = probability(l);
+    if (p > pgm.occupied_thresh) ++occupied;
+    if (p < pgm.free_thresh) ++free_cells;
+  });
   return {occupied, free_cells};
 }
 
@@ -67,7 +73,7 @@ void export_pgm(const HMap& map, const ExportOptions& o) {
   const OccupancyGrid grid = occupancy_from_map(map, model, params, 2.0 * d_n);
   write_pgm_map(o.pgm, grid);
   const auto [occupied, free_cells] = count_classes(grid);
-  std::printf("wrote %s.pgm + .yaml: %zu occupied and %zu free cells of %.3f m, derived from %zu ground patches "
+  std::printf("wrote %s.pgm + .yaml: %zu occupied and %zu free cells (map_server thresholds 0.65 / 0.196) of %.3f m, derived from %zu ground patches "
               "(%d RRT iterations, %.1f s); cells without a ground patch within %.2f m are unknown\n",
               std::filesystem::path(o.pgm).replace_extension().string().c_str(), occupied, free_cells, map.cell_size(),
               ground.patches.size(), params.ground.iterations, ms_since(t0) / 1000.0, 2.0 * d_n);
@@ -106,7 +112,7 @@ void run_export(const ExportOptions& o) {
       const char* what = out == &*file.grid ? "the map's own 2D grid (kept scan by scan)"
                          : fused            ? "the map's own 2D grid and its columns judged, the more occupied per cell"
                                             : "the map's columns judged by eq. (4) on its ground patches";
-      std::printf("wrote %s.pgm + .yaml: %s, %zu occupied and %zu free cells of %.3f m\n",
+      std::printf("wrote %s.pgm + .yaml: %s, %zu occupied and %zu free cells (map_server thresholds 0.65 / 0.196) of %.3f m\n",
                   std::filesystem::path(o.pgm).replace_extension().string().c_str(), what, occupied, free_cells,
                   map.cell_size());
     } else {

@@ -133,5 +133,58 @@ TEST(GroundTrackerTest, EmptyMapAndBadInput) {
   EXPECT_THROW(GroundTracker{bad}, Error);
 }
 
+TEST(GroundTrackerTest, LostGroundIsReseededUnderTheSensor) {
+  // Two floors 14 m apart and 0.5 m apart in height, nothing between: the tree of the first
+  // cannot grow onto the second. With a reach of 30 m the sensor over the second floor still has
+  // patches of the first in reach; it is 8 d_n = 4.8 m from every patch, so the tracker re-seeds.
+  HMap map = empty_map();
+  add_floor(map, -3.0, 3.0, -3.0, 3.0, [](double, double) { return 0.0; });
+  add_floor(map, 17.0, 23.0, -3.0, 3.0, [](double, double) { return 0.5; });
+  GroundTracker tracker(params());
+  ASSERT_TRUE(tracker.update(map, {0.0, 0.0, 1.0}, 30.0).seeded);
+  for (const GroundPatch& p : tracker.patches()) ASSERT_LT(p.center.x(), 4.0);
+  const GroundResult there = tracker.update(map, {20.0, 0.0, 1.5}, 30.0);
+  EXPECT_TRUE(there.seeded);
+  std::size_t on_second = 0;
+  for (const GroundPatch& p : tracker.patches()) {
+    if (p.center.x() > 16.0) {
+      ++on_second;
+      EXPECT_NEAR(p.center.z(), 0.5, 1e-6);
+    }
+  }
+  EXPECT_GT(on_second, 10U);
+  // Back at the first floor nothing is seeded again: patches lie under the sensor.
+  EXPECT_FALSE(tracker.update(map, {0.0, 0.0, 1.0}, 30.0).seeded);
+}
+
+TEST(GroundTrackerTest, SeedsOnTheGroundNotOnTheCarBodyAtQuarterMetreCells) {
+  // An HDL-64 on a car at 0.25 m cells (the outdoor default), sensor at z = 0: the ground at
+  // -1.73 m is seen from 3.75 m on (the lowest beam, -24.8 deg), and three cells of the car's own
+  // body at -0.54 m lie 1.6 m from the sensor. Seeding on the body gave one patch and nothing
+  // connected to it; the root must be on the ground, and the tree must grow over it.
+  Params p;
+  p.map.cell_size = 0.25;
+  HMap map(p);
+  const auto at = [&](double x, double y) {
+    return CellKey{static_cast<std::int32_t>(std::floor(x / 0.25)), static_cast<std::int32_t>(std::floor(y / 0.25))};
+  };
+  for (double x = -12.0; x < 12.0; x += 0.25) {
+    for (double y = -12.0; y < 12.0; y += 0.25) {
+      const Eigen::Vector2d c = map.cell_center(at(x + 0.1, y + 0.1));
+      if (c.norm() < 3.75) continue;
+      map.column_for_update(at(x + 0.1, y + 0.1)).push_back({-1.78F, -1.73F, 10.0F, 1.0F});
+    }
+  }
+  for (const Eigen::Vector2d& xy : {Eigen::Vector2d(-1.125, 1.125), Eigen::Vector2d(-1.125, 0.875), Eigen::Vector2d(-0.875, 1.125)}) {
+    map.column_for_update(at(xy.x(), xy.y())).push_back({-0.6F, -0.54F, 10.0F, 1.0F});
+  }
+  GroundTracker tracker(p.ground);
+  const GroundResult r = tracker.update(map, {0.0, 0.0, 0.0}, 25.0);
+  ASSERT_TRUE(r.seeded);
+  EXPECT_NEAR(tracker.patches()[0].center.z(), -1.73, 0.01);
+  EXPECT_GT(tracker.patches().size(), 50U);
+  for (const GroundPatch& g : tracker.patches()) EXPECT_NEAR(g.center.z(), -1.73, 0.05);
+}
+
 }  // namespace
 }  // namespace hmap

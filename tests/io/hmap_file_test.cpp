@@ -550,6 +550,16 @@ TEST_F(HMapFileTest, MissingFileAndFolderAreRejected) {
   EXPECT_THROW((void)load_hmap(dir_), InputError);
 }
 
+TEST_F(HMapFileTest, FileWrittenBeforeTopNoiseLoadsWithItsDefault) {
+  FileParts p = parts_with_payload(payload_of(kValidTiles));
+  nlohmann::ordered_json j = params_json(Params{});
+  j.erase("ground.top_noise");
+  p.json = j.dump();
+  const auto path = dir_ / "old.hmap";
+  std::ofstream(path, std::ios::binary) << assemble(p);
+  EXPECT_DOUBLE_EQ(load_hmap(path).params().ground.top_noise, GroundParams{}.top_noise);
+}
+
 TEST_F(HMapFileTest, BadParamsAreRejected) {
   const std::string payload = payload_of(kValidTiles);
   const auto with_json = [&](const std::string& json) {

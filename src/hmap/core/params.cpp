@@ -96,6 +96,8 @@ std::vector<ParamRef> param_refs(Params& p) {
                   g.elevation_threshold));
   r.push_back(ref("ground.expansion_distance", "m", "d_n, node expansion distance of eq. (2)",
                   g.expansion_distance));
+  r.push_back(ref("ground.top_noise", "m", "sigma of the HVoxel tops on a flat floor, allowed in a patch's RMS",
+                  g.top_noise));
   r.push_back(ref_int("ground.seed", "-", "random seed of the patch exploration", g.seed));
   auto& o = p.occupancy;
   r.push_back(ref("occupancy.sigma", "m", "sigma of the obstacle term of eq. (4)", o.sigma));
@@ -196,6 +198,7 @@ void validate(const Params& p) {
   require(g.normal_threshold >= 0.0 && g.normal_threshold <= 1.0, "ground.normal_threshold",
           g.normal_threshold, "in [0, 1]");
   require(g.elevation_threshold >= 0.0, "ground.elevation_threshold", g.elevation_threshold, ">= 0");
+  require(g.top_noise >= 0.0, "ground.top_noise", g.top_noise, ">= 0");
   require(g.expansion_distance > 0.0, "ground.expansion_distance", g.expansion_distance, "> 0");
   const auto& o = p.occupancy;
   require(o.sigma > 0.0, "occupancy.sigma", o.sigma, "> 0");

@@ -41,6 +41,8 @@ struct GroundParams {
   double normal_threshold = 0.2;           ///< N_th [-]: patches connect when 1 − |n1·n2| <= N_th
   double elevation_threshold = 0.2;        ///< E_th [m]
   double expansion_distance = 0.9;         ///< d_n [m]
+  double top_noise = 0.02;                 ///< [m] σ of the HVoxel tops on a flat floor (the paper's
+                                           ///< σ): a patch's RMS may exceed E_th / 4 by this, in quadrature
   std::uint64_t seed = 1;                  ///< RNG seed: same seed, same patches
 };
 

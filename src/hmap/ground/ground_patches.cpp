@@ -151,6 +151,21 @@ constexpr double kMaxRmsFactor = 0.25;
 constexpr double kMinSpacing = 0.5;
 /// Start-patch candidates tried after the hint itself (cells of the chosen histogram bin).
 constexpr std::size_t kMaxSeedTries = 16;
+/// The ground the sensor stands on is the lowest *extensive* surface below it: the start height is
+/// the lowest bin covering at least this share of the most extensive bin's cells. Counting cells
+/// (area), not HVoxels, keeps a wall's or a car body's stack of tops from outvoting the floor.
+constexpr double kMinSeedAreaShare = 0.5;
+/// A neighbourhood is used only when its widest bin covers at least this many patch windows of
+/// cells: the first few cells around a sensor are its own mount, the car's body or a table edge,
+/// not ground. When no neighbourhood has that much, one window will do (the floor of a small
+/// enclosure, sim `boxes`: 2 m x 3 m).
+constexpr double kMinSeedWindows[] = {2.0, 1.0};
+/// The tracker has lost the ground when no patch lies within this many d_n of the sensor (a bit
+/// over the blind footprint of a spinning LiDAR at car height: 3.7 m for an HDL-64 at 1.73 m, 8 d_n
+/// = 7.2 m outdoors; 3.2 m indoors, where a camera at 1.5 m sees the floor from about 1 m on).
+constexpr double kLostRadius = 8.0;
+/// Directions tried around a root for a neighbour (see supported()).
+constexpr int kSupportDirections = 16;
 /// The neighbourhood of the hint doubles up to this many times d_n while it holds no HVoxel.
 constexpr double kMaxHistogramRadius = 16.0;
 
@@ -204,10 +219,11 @@ class PatchExplorer {
   /// and a root is seeded under the hint only when no patch lies within d_n of it yet.
   GroundResult grow(const Eigen::Vector3d& hint, double reach) {
     GroundResult result;
-    if (!model_.any_within(hint.x(), hint.y(), reach)) {
-      if (!seed(hint)) return result;
-      result.seeded = true;
-    }
+    // Recovery: a tree that is far from the sensor (never reached this part of the map, or lost
+    // it behind a door or a ramp) gets a new root from the footprint under the sensor.
+    const bool lost = !model_.any_within(hint.x(), hint.y(), std::min(reach, kLostRadius * params_.expansion_distance));
+    if (lost && seed(hint)) result.seeded = true;
+    if (model_.empty()) return result;
     search_center_ = hint.head<2>();
     search_half_extent_ = reach;
     iterate(params_.iterations, /*follow_tree=*/false, result);
@@ -219,10 +235,12 @@ class PatchExplorer {
   /// root that fits. Around a sensor the nearest neighbourhoods hold only the inner rim of the
   /// range hole, where no plane fits.
   bool seed(const Eigen::Vector3d& hint) {
-    for (double radius = params_.expansion_distance; radius <= kMaxHistogramRadius * params_.expansion_distance;
-         radius *= 2.0) {
-      const auto start = neighborhood_histogram(hint, radius);
-      if (start && initialize_tree(*start)) return true;
+    for (const double min_windows : kMinSeedWindows) {
+      for (double radius = params_.expansion_distance; radius <= kMaxHistogramRadius * params_.expansion_distance;
+           radius *= 2.0) {
+        const auto start = neighborhood_histogram(hint, radius, min_windows);
+        if (start && initialize_tree(*start)) return true;
+      }
     }
     return false;
   }
@@ -271,9 +289,10 @@ class PatchExplorer {
     std::vector<Eigen::Vector2d> fallbacks;  ///< cells of that bin, nearest to the hint first
   };
 
-  /// Line 2: histogram of the HVoxel tops below the hint in the cells within `radius`, in bins of E_th;
-  /// the most populated bin (the lowest on ties) gives the start height.
-  std::optional<Start> neighborhood_histogram(const Eigen::Vector3d& hint, double radius) const {
+  /// Line 2: histogram of the HVoxel tops below the hint in the cells within `radius`, in bins of
+  /// E_th; the lowest bin covering half the widest bin's cells gives the start height; none when
+  /// the widest bin covers fewer than `min_windows` patch windows of cells.
+  std::optional<Start> neighborhood_histogram(const Eigen::Vector3d& hint, double radius, double min_windows) const {
     struct Bin {
       int count = 0;
       double sum = 0.0;
@@ -293,9 +312,17 @@ class PatchExplorer {
         }
       });
       if (bins.empty()) return std::nullopt;
+      std::size_t widest = 0;
+      for (const auto& [index, bin] : bins) widest = std::max(widest, bin.cells.size());
+      const double s_cell = map_.cell_size();
+      const double window_cells = std::pow(2.0 * window_ / s_cell, 2.0);
+      if (static_cast<double>(widest) < min_windows * window_cells) return std::nullopt;
       const Bin* best = nullptr;
-      for (const auto& [index, bin] : bins) {  // ascending heights: ties keep the lowest
-        if (best == nullptr || bin.count > best->count) best = &bin;
+      for (const auto& [index, bin] : bins) {  // ascending heights: the lowest extensive bin
+        if (static_cast<double>(bin.cells.size()) >= kMinSeedAreaShare * static_cast<double>(widest)) {
+          best = &bin;
+          break;
+        }
       }
       Start start{{hint.x(), hint.y(), best->sum / best->count}, best->cells};
       // Fallback roots: the bin's cells whose window holds most cells of the bin, nearest first
@@ -336,8 +363,9 @@ class PatchExplorer {
     candidates.insert(candidates.end(), start.fallbacks.begin(), start.fallbacks.end());
     for (const Eigen::Vector2d& xy : candidates) {
       const GroundPatch reference = horizontal_patch({xy.x(), xy.y(), start.p0.z()}, window_);
+      if (model_.any_within(xy.x(), xy.y(), kMinSpacing * params_.expansion_distance)) continue;
       auto root = patch_generation(get_height_points(xy, reference), xy);
-      if (root && std::abs(root->center.z() - start.p0.z()) <= params_.elevation_threshold) {
+      if (root && std::abs(root->center.z() - start.p0.z()) <= params_.elevation_threshold && supported(*root)) {
         add_node(*root);
         search_center_ = xy;
         search_half_extent_ = 2.0 * params_.expansion_distance;
@@ -435,7 +463,10 @@ class PatchExplorer {
     if (qr.rank() < 3) return std::nullopt;
     const Eigen::Vector3d abc = qr.solve(z);
     const double rms = std::sqrt((A * abc - z).squaredNorm() / static_cast<double>(n));
-    if (!(rms <= kMaxRmsFactor * params_.elevation_threshold)) return std::nullopt;
+    // The tops' own noise adds in quadrature to what a step leaves: without it a floor seen by a
+    // depth camera (σ of 1-2 cm at 2-3 m) fails the indoor E_th / 4 = 12.5 mm test.
+    const double step_rms = kMaxRmsFactor * params_.elevation_threshold;
+    if (!(rms <= std::hypot(step_rms, params_.top_noise))) return std::nullopt;
     const Eigen::Vector3d normal = Eigen::Vector3d(-abc.x(), -abc.y(), 1.0).normalized();
     return GroundPatch{{center.x(), center.y(), abc.z()}, normal, window_, -1};
   }
@@ -447,6 +478,21 @@ class PatchExplorer {
     const double elevation_gap =
         std::abs(p_local.center.z() - node.height_at(p_local.center.x(), p_local.center.y()));
     return normal_gap <= params_.normal_threshold && elevation_gap <= params_.elevation_threshold;
+  }
+
+  /// A root must be part of an extensive surface: one of the patches a step d_n away (in
+  /// kSupportDirections directions) fits and connects to it, as Alg. 4's first expansion would.
+  /// A table top or a car roof smaller than d_n has no such neighbour; a scan ring on the ground
+  /// has one along its tangent (hence the fine angular steps: the rings of a VLP-16 lie > d_n apart).
+  bool supported(const GroundPatch& root) const {
+    const double d_n = params_.expansion_distance;
+    for (int k = 0; k < kSupportDirections; ++k) {
+      const double angle = 2.0 * M_PI * k / kSupportDirections;
+      const Eigen::Vector2d xy = root.center.head<2>() + d_n * Eigen::Vector2d(std::cos(angle), std::sin(angle));
+      const auto neighbour = patch_generation(get_height_points(xy, root), xy);
+      if (neighbour && connects(*neighbour, root)) return true;
+    }
+    return false;
   }
 
   /// Line 15: the nodes within d_n of x_expansion, nearest first.
