@@ -558,6 +558,20 @@ TEST_F(HMapFileTest, FileWrittenBeforeTopNoiseLoadsWithItsDefault) {
   const auto path = dir_ / "old.hmap";
   std::ofstream(path, std::ios::binary) << assemble(p);
   EXPECT_DOUBLE_EQ(load_hmap(path).params().ground.top_noise, GroundParams{}.top_noise);
+  // The same for the attitude parameters of session 5, all absent at once; an older parameter
+  // absent is still an error.
+  for (const char* name : {"slam.surface_max_height", "slam.attitude_gate", "slam.attitude_iterations",
+                           "slam.attitude_min_surfaces", "slam.attitude_min_lever", "slam.level_prior",
+                           "slam.max_floor_tilt"}) {
+    j.erase(name);
+  }
+  p.json = j.dump();
+  std::ofstream(path, std::ios::binary | std::ios::trunc) << assemble(p);
+  EXPECT_DOUBLE_EQ(load_hmap(path).params().slam.level_prior, SlamParams{}.level_prior);
+  j.erase("slam.coarse_rotation");
+  p.json = j.dump();
+  std::ofstream(path, std::ios::binary | std::ios::trunc) << assemble(p);
+  EXPECT_THROW((void)load_hmap(path), InputError);
 }
 
 TEST_F(HMapFileTest, BadParamsAreRejected) {

@@ -29,6 +29,18 @@ namespace hmap {
 
 namespace {
 
+/// Parameters added after format version 1 was first written: a file without them takes their
+/// defaults (every other parameter must be there, so a damaged header is still found).
+bool is_later_parameter(const std::string& name) {
+  static constexpr const char* kLater[] = {
+      "ground.top_noise",         "slam.surface_max_height", "slam.attitude_gate", "slam.attitude_iterations",
+      "slam.attitude_min_surfaces", "slam.attitude_min_lever", "slam.level_prior",  "slam.max_floor_tilt"};
+  for (const char* n : kLater) {
+    if (name == n) return true;
+  }
+  return false;
+}
+
 constexpr std::array<unsigned char, 8> kMagic = {0x89, 'H', 'M', 'A', 'P', '\r', '\n', 0x1a};
 constexpr std::uint32_t kVersion = 2;
 constexpr std::uint32_t kOldestVersion = 1;
@@ -279,7 +291,7 @@ HMap map_from_params(const std::string& name, std::span<const unsigned char> tex
   for (const ParamRef& r : param_refs(params)) {
     const auto it = json.find(r.name);
     // Parameters added after a file was written keep their defaults there.
-    if (it == json.end() && r.name == "ground.top_noise") continue;
+    if (it == json.end() && is_later_parameter(r.name)) continue;
     if (it == json.end()) throw fail("parameter \"" + r.name + "\" is missing");
     if (!it->is_number()) throw fail("parameter \"" + r.name + "\" is not a number");
     const double value = it->get<double>();
