@@ -14,6 +14,7 @@
 #include "hmap/baseline/elevation_mapper.hpp"
 #include "hmap/baseline/elevation_occupancy.hpp"
 #include "hmap/core/error.hpp"
+#include "hmap/eval/grid_metrics.hpp"
 #include "hmap/eval/map_metrics.hpp"
 #include "hmap/io/atomic_file.hpp"
 #include "hmap/io/cloud_reader.hpp"
@@ -122,93 +123,6 @@ HMap cut_above(const HMap& map, double z_cut) {
     }
   });
   return out;
-}
-
-/// True traversability per cell from the true surface points: the ground is the lowest point in
-/// the 5x5 cells around (so a box top is not taken for ground), and a cell is blocked when a
-/// point rises more than `step` [m] and at most `robot_height` [m] above that ground. Free cells
-/// under a surface higher than the robot but below `z_cut` (the 2.5D map's ceiling cut, an
-/// absolute height) are "overhang" cells: tables, tree crowns, the paper's case. A ceiling above
-/// the cut is no overhang: neither map is asked about it.
-struct TrueCell {
-  bool blocked = false;
-  bool overhang = false;
-};
-
-std::unordered_map<CellKey, TrueCell, CellKeyHash> true_traversability(const PointCloud& truth, double cell,
-                                                                      double step, double robot_height,
-                                                                      double z_cut) {
-  std::unordered_map<CellKey, float, CellKeyHash> lowest;
-  std::unordered_map<CellKey, std::vector<float>, CellKeyHash> heights;
-  for (const Point3f& p : truth) {
-    const CellKey key{static_cast<std::int32_t>(std::floor(p.x() / cell)), static_cast<std::int32_t>(std::floor(p.y() / cell))};
-    auto [it, fresh] = lowest.try_emplace(key, p.z());
-    if (!fresh) it->second = std::min(it->second, p.z());
-    heights[key].push_back(p.z());
-  }
-  std::unordered_map<CellKey, TrueCell, CellKeyHash> out;
-  for (const auto& [key, zs] : heights) {
-    float ground = std::numeric_limits<float>::infinity();
-    for (int di = -2; di <= 2; ++di) {
-      for (int dj = -2; dj <= 2; ++dj) {
-        if (const auto it = lowest.find({key.i + di, key.j + dj}); it != lowest.end()) ground = std::min(ground, it->second);
-      }
-    }
-    TrueCell t;
-    bool above = false;
-    for (const float z : zs) {
-      const double h = z - ground;
-      t.blocked = t.blocked || (h > step && h <= robot_height);
-      above = above || (h > robot_height && z <= z_cut);
-    }
-    t.overhang = above && !t.blocked;
-    out.emplace(key, t);
-  }
-  return out;
-}
-
-/// Agreement of a 2D grid with the true traversability over the cells it knows (map_server's
-/// thresholds: occupied from 0.65, free up to 0.196, between them undecided and not counted).
-struct GridScores {
-  std::size_t compared = 0;
-  std::size_t correct = 0;
-  std::size_t blocked = 0, blocked_found = 0;
-  std::size_t free = 0, free_found = 0;
-  std::size_t overhang = 0, overhang_free = 0;
-  [[nodiscard]] static double ratio(std::size_t a, std::size_t b) {
-    return b ? static_cast<double>(a) / static_cast<double>(b) : 0.0;
-  }
-  [[nodiscard]] double accuracy() const { return ratio(correct, compared); }
-  [[nodiscard]] double blocked_recall() const { return ratio(blocked_found, blocked); }
-  [[nodiscard]] double free_recall() const { return ratio(free_found, free); }
-  [[nodiscard]] double overhang_accuracy() const { return ratio(overhang_free, overhang); }
-};
-
-GridScores score_grid(const OccupancyGrid& grid, const std::unordered_map<CellKey, TrueCell, CellKeyHash>& truth,
-                      const std::function<bool(const CellKey&)>& in_common) {
-  GridScores s;
-  for (const auto& [key, t] : truth) {
-    if (!in_common(key)) continue;
-    const auto known = grid.probability_at(key);
-    if (!known) continue;
-    const double p = *known;
-    if (p > 0.196 && p < 0.65) continue;
-    const bool says_blocked = p >= 0.65;
-    ++s.compared;
-    s.correct += says_blocked == t.blocked ? 1 : 0;
-    if (t.blocked) {
-      ++s.blocked;
-      s.blocked_found += says_blocked ? 1 : 0;
-    } else {
-      ++s.free;
-      s.free_found += says_blocked ? 0 : 1;
-    }
-    if (t.overhang) {
-      ++s.overhang;
-      s.overhang_free += says_blocked ? 0 : 1;
-    }
-  }
-  return s;
 }
 
 nlohmann::json grid_json(const GridScores& s) {
@@ -333,11 +247,19 @@ void run_compare(const CompareOptions& o) {
     }
     const PointCloud seen = read_cloud(seen_path);
     const PointCloud surface = read_cloud(surface_path);
+    // The walkable ground apart (written by `hmap simulate` since 2026-12-02): without it the local
+    // ground is the lowest surface point around, which a buried kerb face pulls down.
+    const auto ground_path = dir / "truth_ground.ply";
+    const PointCloud truth_ground = std::filesystem::exists(ground_path) ? read_cloud(ground_path) : PointCloud{};
     r_hmap.metrics = evaluate_map(hybrid.map(), seen);
     r_25d.metrics = evaluate_map(elevation_hmap, seen);
     if (!o.skip_octomap) r_octo.metrics = evaluate_map(octomap_as_hmap(octree, params), seen);
-    const auto truth_2d = true_traversability(surface, params.map.cell_size, 2.0 * params.occupancy.ground_distance,
-                                              robot_height, z_cut);
+    TraversabilityTruthParams truth_params;
+    truth_params.cell_size = params.map.cell_size;
+    truth_params.step = 2.0 * params.occupancy.ground_distance;
+    truth_params.robot_height = robot_height;
+    truth_params.overhang_cut = z_cut;
+    const TrueTraversability truth_2d = true_traversability(surface, truth_ground, truth_params);
     // Scored on the cells both grids decided and the truth knows: the same cells for both.
     const auto both = [&](const CellKey& key) {
       return hybrid.grid().probability_at(key).has_value() && grid_25d.probability_at(key).has_value();

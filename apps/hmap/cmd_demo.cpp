@@ -48,6 +48,7 @@ void run_demo(const DemoOptions& o) {
   const double ms_sim = ms_since(t_sim);
   write_simulated_sequence(dir / "sequence", rec.scans, rec.T_world_sensor, rec.times, rec.odometry, rec.truth_surface);
   write_points_ply(dir / "sequence" / "truth_seen.ply", rec.truth_seen);
+  write_points_ply(dir / "sequence" / "truth_ground.ply", rec.truth_ground);
 
   // 2. Map with the true poses.
   const bool outdoor = o.sensor == "vlp16" || o.sensor == "hdl64";

@@ -27,10 +27,11 @@ void run_simulate(const SimulateOptions& o) {
   progress.finish();
   write_simulated_sequence(o.out, rec.scans, rec.T_world_sensor, rec.times, rec.odometry, rec.truth_surface);
   write_points_ply(std::filesystem::path(o.out) / "truth_seen.ply", rec.truth_seen);
+  write_points_ply(std::filesystem::path(o.out) / "truth_ground.ply", rec.truth_ground);
   const double length = path_length(rec.T_world_sensor);
   std::printf("Simulated %zu %s frames of '%s' (seed %llu) along %.1f m in %.1f s: %s points. Wrote %s: "
               "velodyne/*.bin, poses.txt (truth), times.txt, odometry.txt (noisy), truth.ply (%s surface "
-              "points every %.2f m), truth_seen.ply (%s noise-free returns).\n",
+              "points every %.2f m; its walkable ground in truth_ground.ply), truth_seen.ply (%s noise-free returns).\n",
               rec.scans.size(), o.spec.sensor.c_str(), o.spec.scene_file.empty() ? o.spec.scene.c_str() : o.spec.scene_file.c_str(),
               static_cast<unsigned long long>(o.spec.seed), length, ms_since(t0) / 1000.0,
               human_count(static_cast<double>(rec.points)).c_str(), o.out.c_str(),

@@ -129,10 +129,13 @@ SimulatedRecording simulate(const SimulationSpec& spec, const std::function<void
   }
   const double reach = std::min(sensor_reach(sensor), spec.truth_reach) + 2.0;
   std::mt19937_64 rng(spec.seed);
-  for (const Point3f& p : scene.sample_surface(spec.truth_spacing, rng, t_end)) {
+  const sim::Scene::KindedSample truth = scene.sample_surface_kinds(spec.truth_spacing, rng, t_end);
+  for (std::size_t n = 0; n < truth.points.size(); ++n) {
+    const Point3f& p = truth.points[n];
     for (const Eigen::Vector3d& a : anchors) {
       if ((p.cast<double>() - a).squaredNorm() <= reach * reach) {
         rec.truth_surface.push_back(p);
+        if (truth.kinds[n] == sim::SurfaceKind::kGround) rec.truth_ground.push_back(p);
         break;
       }
     }

@@ -28,6 +28,7 @@ struct SimulatedRecording {
   PoseList T_world_sensor;         ///< the truth
   std::vector<double> times;       ///< [s]
   PoseList odometry;               ///< integrated noisy odometry
+  PointCloud truth_ground;         ///< the part of truth_surface that is walkable ground (roads, floors, ramps)
   PointCloud truth_seen;           ///< noise-free returns of the same sensor at every pose, scene at the last time
   PointCloud truth_surface;        ///< dense sample of every surface within the sensor's reach of the path
   std::size_t points = 0;

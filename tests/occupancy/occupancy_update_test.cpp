@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <tuple>
+
 #include <cmath>
 
 namespace hmap {
@@ -80,6 +82,25 @@ TEST(OccupancyUpdateTest, NoGroundNoEvidence) {
   const auto stats = update_occupancy(scan, GroundModel(), params(), grid);
   EXPECT_EQ(stats.no_ground, 1U);
   EXPECT_EQ(grid.known_cells(), 0U);
+}
+
+// The stretch of a linear clearance under a limit, by hand: from 1.7 m down to 0 under 0.2 m is
+// t >= 1.5/1.7; rising from 0.1 to 1.1 under 0.6 is t <= 0.5; both ends under: all; neither: none.
+TEST(BelowAlongTest, StretchOfALinearHeightUnderALimit) {
+  auto [lo, hi] = below_along(1.7, 0.0, 0.2);
+  EXPECT_NEAR(lo, 1.5 / 1.7, 1e-12);
+  EXPECT_EQ(hi, 1.0);
+  std::tie(lo, hi) = below_along(0.1, 1.1, 0.6);
+  EXPECT_EQ(lo, 0.0);
+  EXPECT_NEAR(hi, 0.5, 1e-12);
+  std::tie(lo, hi) = below_along(0.1, 0.15, 0.2);
+  EXPECT_EQ(lo, 0.0);
+  EXPECT_EQ(hi, 1.0);
+  std::tie(lo, hi) = below_along(1.7, 0.5, 0.2);
+  EXPECT_GT(lo, hi);
+  std::tie(lo, hi) = below_along(0.3, 0.3, 0.3);  // on the limit counts as under
+  EXPECT_EQ(lo, 0.0);
+  EXPECT_EQ(hi, 1.0);
 }
 
 }  // namespace

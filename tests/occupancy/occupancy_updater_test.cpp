@@ -18,12 +18,15 @@ Params params() {
 }
 
 /// The brute-force twin: eq. (4) at every cell of every ray, the exact nearest patch at every
-/// cell centre, a hash map of maxima; then eq. (3).
+/// cell centre, the ray's clearance over the ground checked at both ends of every crossed cell, a
+/// hash map of maxima; then eq. (3).
 void twin_update(const ScanHVoxels& scan, const GroundModel& ground, const Params& params, OccupancyGrid& grid) {
   const OccupancyParams& op = params.occupancy;
   const double cell = params.map.cell_size;
   const double xs = scan.origin_map.x();
   const double ys = scan.origin_map.y();
+  const double zs = scan.origin_map.z();
+  const GroundPatch* under = ground.nearest(xs, ys);
   std::unordered_map<CellKey, double, CellKeyHash> p_of_cell;
   for (const ScanCell& target : scan.cells) {
     const double xt = (target.key.i + 0.5) * cell;
@@ -31,17 +34,25 @@ void twin_update(const ScanHVoxels& scan, const GroundModel& ground, const Param
     const GroundPatch* patch = ground.nearest(xt, yt);
     if (patch == nullptr) continue;
     const double g = patch->height_at(xt, yt);
+    const double g_sensor = under != nullptr ? under->height_at(xs, ys) : g;
     std::vector<std::pair<HVoxelRole, double>> judged;
+    double z_low = 1e9;
     for (const HVoxel& v : scan.hvoxels_of(target)) {
       const HVoxelRole role = hvoxel_role(v, g, op);
-      if (role != HVoxelRole::kIgnored) judged.emplace_back(role, v.density);
+      if (role == HVoxelRole::kIgnored) continue;
+      judged.emplace_back(role, v.density);
+      z_low = std::min(z_low, static_cast<double>(v.z_min));
     }
     if (judged.empty()) continue;
     const double length = std::hypot(xt - xs, yt - ys);
+    // Height of the lowest ray over the ground (linear from under the sensor to the target) at t.
+    const auto clearance = [&](double t) { return (zs + t * (z_low - zs)) - (g_sensor + t * (g - g_sensor)); };
     traverse_2d(xs, ys, xt, yt, cell, [&](const CellKey& key, double t_in, double t_out) {
+      const bool low = std::min(clearance(t_in), clearance(t_out)) <= op.free_ray_height;
       const double delta = key == target.key ? 0.0 : (0.5 * (t_in + t_out) - 1.0) * length;
       double p = 0.0;
       for (const auto& [role, density] : judged) p = std::max(p, inverse_sensor_model(role, density, delta, op));
+      if (!low && p <= 0.5 && !(key == target.key)) return true;  // a high pass tells nothing
       p = std::clamp(p, op.ground_gain, op.clamp_max);
       auto [it, fresh] = p_of_cell.try_emplace(key, p);
       if (!fresh) it->second = std::max(it->second, p);

@@ -22,6 +22,7 @@ Params indoor_preset() {
   p.ground.elevation_threshold = 0.05;
   p.ground.expansion_distance = 0.4;
   p.occupancy.ground_distance = 0.03;
+  p.occupancy.free_ray_height = 0.06;
   return p;
 }
 
@@ -109,6 +110,8 @@ std::vector<ParamRef> param_refs(Params& p) {
   r.push_back(ref("occupancy.clamp_max", "-", "highest occupancy probability kept", o.clamp_max));
   r.push_back(ref("occupancy.ground_reach", "m", "farthest an HVoxel may be from a ground patch to be judged",
                   o.ground_reach));
+  r.push_back(ref("occupancy.free_ray_height", "m", "a ray frees the cells it crosses at most this high above the ground",
+                  o.free_ray_height));
   auto& s = p.slam;
   r.push_back(ref_int("slam.interpolation_window", "cells", "IDW window of eq. (12)",
                       s.interpolation_window));
@@ -211,6 +214,8 @@ void validate(const Params& p) {
   require(o.clamp_max > 0.5 && o.clamp_max < 1.0, "occupancy.clamp_max", o.clamp_max,
           "in (0.5, 1)");
   require(o.ground_reach > 0.0, "occupancy.ground_reach", o.ground_reach, "> 0");
+  require(o.free_ray_height >= 0.0 && o.free_ray_height <= 1000.0, "occupancy.free_ray_height", o.free_ray_height,
+          "in [0, 1000]");
   const auto& s = p.slam;
   require(s.interpolation_window >= 1 && s.interpolation_window <= 9 && s.interpolation_window % 2 == 1,
           "slam.interpolation_window", s.interpolation_window, "an odd number in [1, 9]");

@@ -57,6 +57,9 @@ struct OccupancyParams {
   double clamp_max = 0.97;                 ///< [-] probability ceiling
   double ground_reach = 3.0;               ///< [m] HVoxels farther than this beyond the square of
                                            ///< their nearest ground patch are not judged
+  double free_ray_height = 0.2;            ///< [m] a ray frees the cells it crosses at most this high above
+                                           ///< the ground (2·d_pth: no obstacle that blocks stands there);
+                                           ///< above z+ every crossed cell, as the paper's 2D ray
 };
 
 /// SLAM by Gauss-Newton matching on the HMAP (section IV-C, eq. 5-12).

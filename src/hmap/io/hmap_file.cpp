@@ -34,7 +34,8 @@ namespace {
 bool is_later_parameter(const std::string& name) {
   static constexpr const char* kLater[] = {
       "ground.top_noise",         "slam.surface_max_height", "slam.attitude_gate", "slam.attitude_iterations",
-      "slam.attitude_min_surfaces", "slam.attitude_min_lever", "slam.level_prior",  "slam.max_floor_tilt"};
+      "slam.attitude_min_surfaces", "slam.attitude_min_lever", "slam.level_prior",  "slam.max_floor_tilt",
+      "occupancy.free_ray_height"};
   for (const char* n : kLater) {
     if (name == n) return true;
   }

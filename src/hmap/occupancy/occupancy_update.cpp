@@ -43,7 +43,18 @@ double eq4_cutoff(const OccupancyParams& p) {
   const double ground = p.ground_distance * std::log(std::max(0.5 - p.ground_gain, kCutoffEpsilon) / kCutoffEpsilon);
   return std::max(obstacle, ground);
 }
+
 }  // namespace
+
+std::pair<double, double> below_along(double h_start, double h_end, double limit) {
+  constexpr double kNone = std::numeric_limits<double>::infinity();
+  const bool start_low = h_start <= limit;
+  const bool end_low = h_end <= limit;
+  if (start_low && end_low) return {0.0, 1.0};
+  if (!start_low && !end_low) return {kNone, -kNone};
+  const double t = (limit - h_start) / (h_end - h_start);  // h_start != h_end here
+  return end_low ? std::pair{t, 1.0} : std::pair{0.0, t};
+}
 
 namespace {
 struct RayBuffer {
@@ -134,6 +145,15 @@ OccupancyUpdateStats OccupancyUpdater::update(const ScanHVoxels& scan, const Gro
 
   find_ground(scan, window, ground, stats);
 
+  // The sensor's height above its own ground (no patch under it: each ray takes its target's).
+  double sensor_ground = std::numeric_limits<double>::quiet_NaN();
+  if (const GroundPatch* under = ground.nearest(xs, ys);
+      under != nullptr &&
+      (under->center.head<2>() - Eigen::Vector2d(xs, ys)).cwiseAbs().maxCoeff() - under->half_size <= op.ground_reach) {
+    sensor_ground = under->height_at(xs, ys);
+  }
+  const double zs = scan.origin_map.z();
+
   // The rays, in parallel: each thread keeps the max p per cell in its own dense buffer.
   const auto floor_p = static_cast<float>(op.ground_gain);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, scan.cells.size(), 256), [&](const auto& range) {
@@ -143,9 +163,12 @@ OccupancyUpdateStats OccupancyUpdater::update(const ScanHVoxels& scan, const Gro
       if (std::isnan(ground_z_[c])) continue;
       const ScanCell& target = scan.cells[c];
       buffer.judged.clear();
+      double z_low = std::numeric_limits<double>::infinity();
       for (const HVoxel& v : scan.hvoxels_of(target)) {
         const HVoxelRole role = hvoxel_role(v, ground_z_[c], op);
-        if (role != HVoxelRole::kIgnored) buffer.judged.emplace_back(role, v.density);
+        if (role == HVoxelRole::kIgnored) continue;
+        buffer.judged.emplace_back(role, v.density);
+        z_low = std::min(z_low, static_cast<double>(v.z_min));
       }
       if (buffer.judged.empty()) continue;  // only ceilings, crowns or pits here: no evidence
       ++buffer.rays;
@@ -153,7 +176,20 @@ OccupancyUpdateStats OccupancyUpdater::update(const ScanHVoxels& scan, const Gro
       const double yt = (target.key.j + 0.5) * cell;
       const double length = std::hypot(xt - xs, yt - ys);
       const double t_cutoff = length > 0.0 ? 1.0 - cutoff_ / length : 0.0;
+      // Where the lowest ray to this cell (to its lowest judged HVoxel) runs at most
+      // free_ray_height above the ground, with the ground taken linear from under the sensor to
+      // here: only there is a pass evidence that nothing blocking stands in the cell. Higher, an
+      // obstacle could stand under the ray (a parked car under the ray to a facade).
+      const double g_target = ground_z_[c];
+      const double h_start = zs - (std::isnan(sensor_ground) ? g_target : sensor_ground);
+      const double h_end = z_low - g_target;
+      const auto [t_free_lo, t_free_hi] = below_along(h_start, h_end, op.free_ray_height);
+      // Nothing before min(t_free_lo, t_cutoff) is touched. The walk still starts at the sensor:
+      // started halfway, it would cross a grid corner on the other side now and then.
+      const double t_start = std::min(t_free_lo, t_cutoff);
       traverse_2d(xs, ys, xt, yt, cell, [&](const CellKey& key, double t_in, double t_out) {
+        if (t_out < t_start) return true;
+        const bool low = t_out >= t_free_lo && t_in <= t_free_hi;
         float p = floor_p;
         if (t_out >= t_cutoff) {
           // |c| − |v|: from the middle of the ray's stretch in this cell to the HVoxel's cell centre.
@@ -162,7 +198,10 @@ OccupancyUpdateStats OccupancyUpdater::update(const ScanHVoxels& scan, const Gro
           for (const auto& [role, density] : buffer.judged) {
             q_max = std::max(q_max, inverse_sensor_model(role, density, delta, op));
           }
+          if (!low && q_max <= 0.5 && !(key == target.key)) return true;  // a high pass: no evidence
           p = static_cast<float>(std::clamp(q_max, op.ground_gain, op.clamp_max));
+        } else if (!low) {
+          return true;
         }
         const std::size_t index = window.index(key);
         float& slot = buffer.p[index];

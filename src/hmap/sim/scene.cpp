@@ -289,13 +289,18 @@ bool Scene::contains(const Eigen::Vector3d& point, double t_seconds) const {
 }
 
 PointCloud Scene::sample_surface(double spacing_m, std::mt19937_64& rng, double t_seconds) const {
+  return sample_surface_kinds(spacing_m, rng, t_seconds).points;
+}
+
+Scene::KindedSample Scene::sample_surface_kinds(double spacing_m, std::mt19937_64& rng, double t_seconds) const {
   if (!(spacing_m > 0.0)) throw Error("Scene::sample_surface: spacing must be positive");
   constexpr double kCoverProbe = 1e-3;  // [m] a sample is hidden when just outside it is solid
-  PointCloud points;
+  KindedSample out;
   std::vector<SurfaceSample> samples;
   for (std::uint32_t id = 0; id < parts_.size(); ++id) {
     samples.clear();
-    Shape shape = part_at(id, t_seconds).shape;
+    const Part part = part_at(id, t_seconds);
+    Shape shape = part.shape;
     if (!bounds_.intersects(bounding_box(shape))) continue;
     if (auto* ground = std::get_if<GroundPatch>(&shape); ground != nullptr && ground->yaw == 0.0) {
       clip_to_bounds(*ground, bounds_);  // a ground plane may reach far beyond the region sampled
@@ -303,10 +308,11 @@ PointCloud Scene::sample_surface(double spacing_m, std::mt19937_64& rng, double 
     sim::sample_surface(shape, spacing_m, rng, samples);
     for (const SurfaceSample& s : samples) {
       if (!bounds_.contains(s.point) || covered(s.point + kCoverProbe * s.normal, t_seconds, id)) continue;
-      points.push_back(s.point.cast<float>());
+      out.points.push_back(s.point.cast<float>());
+      out.kinds.push_back(part.kind);
     }
   }
-  return points;
+  return out;
 }
 
 std::optional<std::uint32_t> Scene::find_object(std::string_view name) const {

@@ -108,6 +108,13 @@ class Scene {
   /// `spacing_m` apart on each solid, without those inside the bounds' complement and those
   /// covered by another solid (a table leg's top inside the table top, a box's face on the floor).
   [[nodiscard]] PointCloud sample_surface(double spacing_m, std::mt19937_64& rng, double t_seconds) const;
+  /// The same sample with each point's surface kind (kinds[n] for points[n]): the truth's walkable
+  /// ground (SurfaceKind::kGround) apart from the rest.
+  struct KindedSample {
+    PointCloud points;
+    std::vector<SurfaceKind> kinds;
+  };
+  [[nodiscard]] KindedSample sample_surface_kinds(double spacing_m, std::mt19937_64& rng, double t_seconds) const;
 
   [[nodiscard]] std::size_t primitive_count() const { return parts_.size(); }
   [[nodiscard]] std::size_t object_count() const { return objects_.size(); }
