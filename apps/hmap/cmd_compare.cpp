@@ -13,6 +13,7 @@
 #include "cli_common.hpp"
 #include "hmap/baseline/elevation_mapper.hpp"
 #include "hmap/baseline/elevation_occupancy.hpp"
+#include "hmap/baseline/octomap_projection.hpp"
 #include "hmap/core/error.hpp"
 #include "hmap/eval/grid_metrics.hpp"
 #include "hmap/eval/map_metrics.hpp"
@@ -39,6 +40,7 @@ struct CompareOptions {
   std::optional<double> elevation_ceiling;
   int max_pixels = 900;
   bool skip_octomap = false;
+  bool json = false;
   std::string out;
 };
 
@@ -49,49 +51,6 @@ struct SystemResult {
   std::size_t memory_bytes = 0;
   std::optional<MapMetrics> metrics;
 };
-
-/// Occupied OctoMap leaves as HVoxels, so that evaluate_map scores all three maps alike: per
-/// column, vertically adjacent leaves unite into one HVoxel.
-HMap octomap_as_hmap(const octomap::OcTree& tree, const Params& params) {
-  HMap map(params);
-  const double cell = params.map.cell_size;
-  std::map<CellKey, std::vector<std::pair<float, float>>, bool (*)(const CellKey&, const CellKey&)> columns(
-      [](const CellKey& a, const CellKey& b) { return a.i != b.i ? a.i < b.i : a.j < b.j; });
-  for (auto it = tree.begin_leafs(); it != tree.end_leafs(); ++it) {
-    if (!tree.isNodeOccupied(*it)) continue;
-    const double size = it.getSize();
-    const double half = size / 2.0;
-    const int n = std::max(1, static_cast<int>(std::lround(size / cell)));
-    for (int a = 0; a < n; ++a) {
-      for (int b = 0; b < n; ++b) {
-        const double x = it.getX() - half + (a + 0.5) * cell;
-        const double y = it.getY() - half + (b + 0.5) * cell;
-        const auto key = map.key_of(x, y);
-        if (!key) continue;
-        columns[*key].emplace_back(static_cast<float>(it.getZ() - half), static_cast<float>(it.getZ() + half));
-      }
-    }
-  }
-  for (auto& [key, spans] : columns) {
-    std::sort(spans.begin(), spans.end());
-    TileColumn column = map.column_for_update(key);
-    std::pair<float, float> run = spans.front();
-    const auto flush = [&] {
-      const float count = std::round((run.second - run.first) / static_cast<float>(cell));
-      column.push_back({run.first, run.second, count, 1.0F});
-    };
-    for (std::size_t k = 1; k < spans.size(); ++k) {
-      if (spans[k].first <= run.second + 1e-4F) {
-        run.second = std::max(run.second, spans[k].second);
-      } else {
-        flush();
-        run = spans[k];
-      }
-    }
-    flush();
-  }
-  return map;
-}
 
 /// The 2.5D map drawn as solid columns from the lowest point seen to the elevation (what a
 /// 2.5D map asserts: everything below the surface is filled).
@@ -237,7 +196,7 @@ void run_compare(const CompareOptions& o) {
   report["scans"] = src.scans.size();
   report["cell_size_m"] = params.map.cell_size;
   const double robot_height = o.robot_height.value_or(params.occupancy.z_plus);
-  std::optional<GridScores> g_hmap, g_hmap_final, g_hmap_fused, g_25d;
+  std::optional<GridScores> g_hmap, g_hmap_final, g_hmap_fused, g_25d, g_octo;
   if (!o.truth.empty()) {
     const std::filesystem::path dir(o.truth);
     const auto seen_path = dir / "truth_seen.ply";
@@ -268,6 +227,16 @@ void run_compare(const CompareOptions& o) {
     g_hmap_final = score_grid(grid_final, truth_2d, both);
     g_hmap_fused = score_grid(grid_fused, truth_2d, both);
     g_25d = score_grid(grid_25d, truth_2d, both);
+    if (!o.skip_octomap) {
+      // What a ROS user gets from this OctoMap: octomap_server's projection of the band between
+      // the step and the robot's height, over the same local ground as HMAP's grid.
+      OctomapProjectionParams band;
+      band.min_height = truth_params.step;
+      band.max_height = robot_height;
+      band.ground_reach = params.occupancy.ground_reach;
+      g_octo = score_grid(project_octomap(octree, hybrid.ground(), params.map.cell_size, params.occupancy, band), truth_2d,
+                          both);
+    }
   }
 
   // The report.
@@ -304,24 +273,55 @@ void run_compare(const CompareOptions& o) {
         "HMAP's includes its per-scan ground tree and 2D grid update. 3D scores: voxels of the cell size against the "
         "surface the sensor saw (truth_seen.ply); the 2.5D map as one HVoxel per cell at its elevation; OctoMap's "
         "occupied leaves.\n";
+  // Every score as one JSON line per system and grid (--json), the same numbers as the tables.
+  std::vector<nlohmann::json> lines;
+  for (const SystemResult* r : systems) {
+    nlohmann::json j = report["systems"][r->name];
+    j["system"] = r->name;
+    j["grid"] = "3d";
+    lines.push_back(std::move(j));
+  }
   if (g_hmap && g_hmap_final && g_hmap_fused && g_25d) {
+    struct Row {
+      const char* system;
+      const char* grid;
+      const char* label;
+      const char* key;  // in report.json
+      const GridScores* scores;
+    };
+    std::vector<Row> rows{{"HMAP", "kept", "HMAP, eq. 3-4 scan by scan", "hmap", &*g_hmap},
+                          {"HMAP", "judged", "HMAP, judged from the final map", "hmap_final", &*g_hmap_final},
+                          {"HMAP", "both", "HMAP, both (the more occupied; what export --pgm writes)", "hmap_fused",
+                           &*g_hmap_fused},
+                          {"2.5D [9]", "judged", "2.5D [9], judged from the final map", "elevation_25d", &*g_25d}};
+    if (g_octo) {
+      rows.push_back({"OctoMap", "projected", "OctoMap, projected as octomap_server does", "octomap_projected", &*g_octo});
+    }
     char line[512];
     md << "\n## 2D occupancy against the true traversability (robot " << robot_height << " m tall, steps over "
        << 2.0 * params.occupancy.ground_distance << " m block)\n\n";
     md << "| 2D grid | cells compared | accuracy | blocked found | free found | free under overhangs |\n| --- | --- | --- | --- | --- | --- |\n";
-    for (const auto& [name, g] : {std::pair{"HMAP, eq. 3-4 scan by scan", *g_hmap},
-                                  std::pair{"HMAP, judged from the final map", *g_hmap_final},
-                                  std::pair{"HMAP, both (the more occupied)", *g_hmap_fused},
-                                  std::pair{"2.5D [9], judged from the final map", *g_25d}}) {
-      std::snprintf(line, sizeof line, "| %s | %zu | %.3f | %.3f (%zu) | %.3f (%zu) | %.3f (%zu) |\n", name, g.compared,
-                    g.accuracy(), g.blocked_recall(), g.blocked, g.free_recall(), g.free, g.overhang_accuracy(), g.overhang);
+    report["grid_2d"] = {{"robot_height_m", robot_height}};
+    for (const Row& row : rows) {
+      const GridScores& g = *row.scores;
+      std::snprintf(line, sizeof line, "| %s | %zu | %.3f | %.3f (%zu) | %.3f (%zu) | %.3f (%zu) |\n", row.label,
+                    g.compared, g.accuracy(), g.blocked_recall(), g.blocked, g.free_recall(), g.free,
+                    g.overhang_accuracy(), g.overhang);
       md << line;
+      nlohmann::json j = grid_json(g);
+      report["grid_2d"][row.key] = j;
+      j["system"] = row.system;
+      j["grid"] = row.grid;
+      j["blocked_found"] = g.blocked_recall();
+      j["free_found"] = g.free_recall();
+      j["overhang_free"] = g.overhang_accuracy();
+      lines.push_back(std::move(j));
     }
-    md << "\nCells both grids observed where the truth has a surface, each grid scored on those it decided "
-          "(map_server thresholds: occupied >= 0.65, free <= 0.196). Overhang cells: free ground under something higher than the robot and below the 2.5D "
-          "map's cut (table tops, tree crowns, low ceilings).\n";
-    report["grid_2d"] = {{"robot_height_m", robot_height}, {"hmap", grid_json(*g_hmap)},
-                          {"hmap_final", grid_json(*g_hmap_final)}, {"hmap_fused", grid_json(*g_hmap_fused)}, {"elevation_25d", grid_json(*g_25d)}};
+    md << "\nCells both HMAP's kept grid and the 2.5D grid observed where the truth has a surface, each grid "
+          "scored on those it decided (map_server thresholds: occupied >= 0.65, free <= 0.196). Overhang cells: free "
+          "ground under something higher than the robot and below the 2.5D map's cut (table tops, tree crowns, low "
+          "ceilings). The OctoMap row: occupied leaves whose centre lies between the step and the robot's height "
+          "above the local ground (HMAP's ground patches) make a cell occupied, free leaves there free.\n";
   }
   char cut_line[512];
   std::snprintf(cut_line, sizeof cut_line,
@@ -335,7 +335,11 @@ void run_compare(const CompareOptions& o) {
   report["display_cut_z_m"] = z_cut;
   write_file_atomic(out("report.md"), [&](std::ostream& f) { f << md.str(); });
   write_file_atomic(out("report.json"), [&](std::ostream& f) { f << report.dump(2) << '\n'; });
-  std::fputs(md.str().c_str(), stdout);
+  if (o.json) {
+    for (const nlohmann::json& j : lines) std::printf("%s\n", j.dump().c_str());
+  } else {
+    std::fputs(md.str().c_str(), stdout);
+  }
 }
 
 }  // namespace
@@ -353,6 +357,9 @@ void add_compare_command(CLI::App& app) {
                   "[m] above the sensor: higher points are left out of the 2.5D map (default occupancy.z_plus)");
   cmd->add_option("--max-pixels", opts->max_pixels, "Largest side of each top-view panel")->capture_default_str();
   cmd->add_flag("--skip-octomap", opts->skip_octomap, "Leave OctoMap out (it takes most of the time)");
+  cmd->add_flag("--json", opts->json,
+                "Print every score as JSON lines (one per system and grid: system, grid, blocked_found, free_found, "
+                "overhang_free, accuracy, ...) instead of the report");
   cmd->add_option("--out,-o", opts->out, "Output folder")->required();
   opts->params.add_to(*cmd);
   opts->sensors.add_to(*cmd);

@@ -1,6 +1,8 @@
 // The hmap command line end to end: exit codes, one-line errors, outputs that load.
 
 #include <gtest/gtest.h>
+
+#include <set>
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
@@ -333,6 +335,31 @@ TEST_F(CliTest, HybridMapExportsItsGridAndCompareScoresIt) {
   EXPECT_GE(hm.at("accuracy").get<double>(), el.at("accuracy").get<double>());
   EXPECT_GT(j.at("systems").at("HMAP").at("recall_1voxel").get<double>(),
             j.at("systems").at("2.5D [9]").at("recall_1voxel").get<double>());
+  ASSERT_TRUE(j.at("grid_2d").contains("octomap_projected"));
+
+  // --json: one line per system and grid, the same numbers as report.json.
+  const CmdResult cj = run("compare --kitti " + path("seq") + " --truth " + path("seq") +
+                           " --preset indoor --robot-height 0.5 --set occupancy.z_plus=0.5 --elevation-ceiling 1.0 "
+                           "--max-pixels 200 --json --out " + path("cmpj"));
+  ASSERT_EQ(cj.code, 0) << cj.out;
+  std::istringstream json_lines(cj.out);
+  std::string text;
+  std::set<std::string> grids;
+  while (std::getline(json_lines, text)) {
+    if (text.empty() || text.front() != '{') continue;  // progress on a terminal only; nothing else expected
+    const auto line = nlohmann::json::parse(text);
+    const std::string key = line.at("system").get<std::string>() + "/" + line.at("grid").get<std::string>();
+    grids.insert(key);
+    if (line.at("grid") == "3d") continue;
+    for (const char* field : {"blocked_found", "free_found", "overhang_free", "accuracy"}) {
+      ASSERT_TRUE(line.contains(field)) << key << " " << field;
+    }
+    if (key == "HMAP/kept") EXPECT_DOUBLE_EQ(line.at("overhang_free").get<double>(), hm.at("overhang_free").get<double>());
+  }
+  for (const char* g : {"HMAP/kept", "HMAP/judged", "HMAP/both", "2.5D [9]/judged", "OctoMap/projected", "HMAP/3d",
+                        "2.5D [9]/3d", "OctoMap/3d"}) {
+    EXPECT_TRUE(grids.contains(g)) << g << " missing from\n" << cj.out;
+  }
 }
 
 }  // namespace
