@@ -1,12 +1,14 @@
 // hmap export: a saved map into formats other tools read.
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 
 #include "cli_common.hpp"
 #include "hmap/core/error.hpp"
 #include "hmap/io/hmap_file.hpp"
 #include "hmap/ground/ground_patches.hpp"
+#include "hmap/io/geotiff.hpp"
 #include "hmap/io/pgm_export.hpp"
 #include "hmap/io/ply_export.hpp"
 #include "hmap/occupancy/occupancy_update.hpp"
@@ -21,6 +23,9 @@ struct ExportOptions {
   std::string ply;
   std::string bt;
   std::string pgm;
+  std::string costmap;
+  std::string geotiff;
+  TraversabilityParams traversability;
   std::vector<double> ground_hint;
   int ground_iterations = 0;
   bool points = false;
@@ -41,9 +46,16 @@ std::pair<std::size_t, std::size_t> count_classes(const OccupancyGrid& grid, con
   return {occupied, free_cells};
 }
 
-/// The 2D occupancy of a saved map as map_server PGM + YAML: ground patches by Alg. 4 from a hint
-/// (given, or the middle of the map at a low height), then each column judged by eq. (4)'s cases.
-void export_pgm(const HMap& map, const ExportOptions& o) {
+/// The 2D grid to export and the ground it was judged on, with a sentence saying which it is.
+struct GridChoice {
+  OccupancyGrid grid;
+  std::vector<GroundPatch> ground;
+  std::string what;
+};
+
+/// A map without its own grid: ground patches by Alg. 4 from a hint (given, or the middle of the
+/// map at a low height), then each column judged by eq. (4)'s cases.
+GridChoice derive_grid(const HMap& map, const ExportOptions& o) {
   const MapStats st = map.stats();
   if (st.hvoxels == 0) throw Error(o.map + ": the map is empty, nothing to export");
   Params params = map.params();
@@ -64,60 +76,86 @@ void export_pgm(const HMap& map, const ExportOptions& o) {
                                  ? o.ground_iterations
                                  : std::clamp(static_cast<int>(2.0 * area / (d_n * d_n)), params.ground.iterations, 4000);
   const auto t0 = Clock::now();
-  const GroundResult ground = extract_ground(map, hint, params.ground);
+  GroundResult ground = extract_ground(map, hint, params.ground);
   if (!ground.seeded) {
     throw Error(o.map + ": no ground found near the hint (" + std::to_string(hint.x()) + ", " + std::to_string(hint.y()) +
                 ", " + std::to_string(hint.z()) + "); give --ground-hint X Y Z near the floor");
   }
   const GroundModel model(ground.patches);
-  const OccupancyGrid grid = occupancy_from_map(map, model, params, 2.0 * d_n);
-  write_pgm_map(o.pgm, grid);
-  const auto [occupied, free_cells] = count_classes(grid);
-  std::printf("wrote %s.pgm + .yaml: %zu occupied and %zu free cells (map_server thresholds 0.65 / 0.196) of %.3f m, derived from %zu ground patches "
-              "(%d RRT iterations, %.1f s); cells without a ground patch within %.2f m are unknown\n",
-              std::filesystem::path(o.pgm).replace_extension().string().c_str(), occupied, free_cells, map.cell_size(),
-              ground.patches.size(), params.ground.iterations, ms_since(t0) / 1000.0, 2.0 * d_n);
+  char what[256];
+  std::snprintf(what, sizeof what,
+                "derived from %zu ground patches (%d RRT iterations, %.1f s); cells without a ground patch within "
+                "%.2f m are unknown",
+                ground.patches.size(), params.ground.iterations, ms_since(t0) / 1000.0, 2.0 * d_n);
+  return {occupancy_from_map(map, model, params, 2.0 * d_n), std::move(ground.patches), what};
+}
+
+/// The grid kept scan by scan (eq. 3-4 with every ray) is the better map; a map saved without it
+/// (hmap map --hvoxels-only, or older files) or --rederive gets one derived from its columns.
+/// "both" (default): each cell the more occupied of the grid kept scan by scan and the columns of
+/// the final map judged by eq. (4) on the same ground patches. The kept grid alone misses what few
+/// rays hit; the judged one misses what later scans carved; docs/COMPARE.md has the figures.
+GridChoice choose_grid(MapFile& file, const ExportOptions& o) {
+  const HMap& map = file.map;
+  if (!file.grid || file.grid->known_cells() == 0 || o.rederive) return derive_grid(map, o);
+  const Params& params = map.params();
+  std::optional<OccupancyGrid> judged;
+  if (o.grid != "kept" && !file.ground.empty()) {
+    judged = occupancy_from_map(map, GroundModel(file.ground), params, params.occupancy.ground_reach);
+  }
+  if (judged && o.grid == "both") {
+    return {more_occupied(*file.grid, *judged), file.ground,
+            "the map's own 2D grid and its columns judged, the more occupied per cell"};
+  }
+  if (judged && o.grid == "judged") return {std::move(*judged), file.ground, "the map's columns judged by eq. (4) on its ground patches"};
+  return {std::move(*file.grid), file.ground, "the map's own 2D grid (kept scan by scan)"};
+}
+
+/// --costmap and --geotiff: the traversability layers of the chosen grid.
+void export_traversability(const GridChoice& choice, const ExportOptions& o) {
+  TraversabilityParams tp = o.traversability;
+  const TraversabilityLayers layers = traversability(choice.grid, GroundModel(choice.ground), tp);
+  if (!o.costmap.empty()) {
+    write_costmap_pgm(o.costmap, layers);
+    std::size_t lethal = 0, free_cells = 0, unknown = 0;
+    for (const std::uint8_t c : layers.cost) {
+      lethal += c == 100 ? 1 : 0;
+      free_cells += c == 0 ? 1 : 0;
+      unknown += c == TraversabilityLayers::kUnknown ? 1 : 0;
+    }
+    std::printf("wrote %s.pgm + .yaml (Nav2 scale mode): %zu lethal, %zu free, %zu between, %zu unknown (written lethal) "
+                "cells of %.3f m; lethal from a step of %.2f m or a slope of %.1f deg, inflation %.2f m\n",
+                std::filesystem::path(o.costmap).replace_extension().string().c_str(), lethal, free_cells,
+                layers.cost.size() - lethal - free_cells - unknown, unknown, layers.cell_size, tp.max_step, tp.max_slope_deg,
+                tp.inflation_radius);
+  }
+  if (!o.geotiff.empty()) {
+    std::size_t with_ground = 0;
+    for (const float z : layers.ground_z) with_ground += std::isnan(z) ? 0 : 1;
+    if (with_ground == 0) throw Error(o.map + ": the map has no ground patch, no ground height to write to " + o.geotiff);
+    write_ground_geotiff(o.geotiff, layers);
+    std::printf("wrote %s: ground height of %zu cells (%d x %d pixels of %.3f m, NaN elsewhere)\n", o.geotiff.c_str(),
+                with_ground, layers.width, layers.height, layers.cell_size);
+  }
 }
 
 void run_export(const ExportOptions& o) {
-  if (o.ply.empty() && o.bt.empty() && o.pgm.empty()) {
-    throw Error("nothing to export: give --ply OUT.ply, --bt OUT.bt and/or --pgm OUT");
+  if (o.ply.empty() && o.bt.empty() && o.pgm.empty() && o.costmap.empty() && o.geotiff.empty()) {
+    throw Error("nothing to export: give --ply OUT.ply, --bt OUT.bt, --pgm OUT, --costmap OUT and/or --geotiff OUT.tif");
   }
+  validate(o.traversability);
   MapFile file = load_map_file(o.map);
   const HMap& map = file.map;
-  if (!o.pgm.empty()) {
-    // The grid kept scan by scan (eq. 3-4 with every ray) is the better map; a map saved without it
-    // (hmap map --hvoxels-only, or older files) gets one derived from its columns.
-    if (file.grid && file.grid->known_cells() > 0 && !o.rederive) {
-      // "both" (default): each cell the more occupied of the grid kept scan by scan and the
-      // columns of the final map judged by eq. (4) on the same ground patches. The kept grid
-      // alone misses thin or sparsely hit obstacles outdoors (few points per cell give densities
-      // barely over 0.5 against the free passes of every ray); the judged one misses what later
-      // scans carved; docs/COMPARE.md has the figures.
-      const Params& params = map.params();
-      std::optional<OccupancyGrid> judged;
-      if (o.grid != "kept" && !file.ground.empty()) {
-        judged = occupancy_from_map(map, GroundModel(file.ground), params, params.occupancy.ground_reach);
-      }
-      const OccupancyGrid* out = &*file.grid;
-      std::optional<OccupancyGrid> fused;
-      if (judged && o.grid == "both") {
-        fused = more_occupied(*file.grid, *judged);
-        out = &*fused;
-      } else if (judged && o.grid == "judged") {
-        out = &*judged;
-      }
-      write_pgm_map(o.pgm, *out);
-      const auto [occupied, free_cells] = count_classes(*out);
-      const char* what = out == &*file.grid ? "the map's own 2D grid (kept scan by scan)"
-                         : fused            ? "the map's own 2D grid and its columns judged, the more occupied per cell"
-                                            : "the map's columns judged by eq. (4) on its ground patches";
-      std::printf("wrote %s.pgm + .yaml: %s, %zu occupied and %zu free cells (map_server thresholds 0.65 / 0.196) of %.3f m\n",
-                  std::filesystem::path(o.pgm).replace_extension().string().c_str(), what, occupied, free_cells,
-                  map.cell_size());
-    } else {
-      export_pgm(map, o);
+  if (!o.pgm.empty() || !o.costmap.empty() || !o.geotiff.empty()) {
+    const GridChoice choice = choose_grid(file, o);
+    if (!o.pgm.empty()) {
+      write_pgm_map(o.pgm, choice.grid);
+      const auto [occupied, free_cells] = count_classes(choice.grid);
+      std::printf("wrote %s.pgm + .yaml: %zu occupied and %zu free cells (map_server thresholds 0.65 / 0.196) of %.3f m, %s\n",
+                  std::filesystem::path(o.pgm).replace_extension().string().c_str(), occupied, free_cells,
+                  map.cell_size(), choice.what.c_str());
     }
+    if (!o.costmap.empty() || !o.geotiff.empty()) export_traversability(choice, o);
   }
   if (o.ply.empty() && o.bt.empty()) return;
   if (!o.bt.empty()) {
@@ -140,7 +178,7 @@ void run_export(const ExportOptions& o) {
 
 void add_export_command(CLI::App& app) {
   auto opts = std::make_shared<ExportOptions>();
-  auto* cmd = app.add_subcommand("export", "Write a map as PLY (HVoxel boxes, or the recovered points) or as an OctoMap .bt");
+  auto* cmd = app.add_subcommand("export", "Write a map as PLY (HVoxel boxes, or the recovered points), an OctoMap .bt, a 2D grid, a costmap or a ground GeoTIFF");
   cmd->add_option("map", opts->map, "Map file (.hmap)")->required();
   cmd->add_option("--ply", opts->ply, "Output PLY file");
   cmd->add_option("--pgm", opts->pgm, "Output 2D occupancy as ROS map_server PGM + YAML (OUT.pgm, OUT.yaml)");
@@ -154,6 +192,17 @@ void add_export_command(CLI::App& app) {
   cmd->add_option("--ground-hint", opts->ground_hint, "A point near the floor, X Y Z [m], to start the ground search")
       ->expected(3);
   cmd->add_option("--ground-iterations", opts->ground_iterations, "RRT iterations K (default: grows with the map area)");
+  cmd->add_option("--costmap", opts->costmap,
+                  "Output traversability cost (occupancy, ground step and slope) as a Nav2 costmap-style PGM + YAML "
+                  "(mode: scale; OUT.pgm, OUT.yaml)");
+  cmd->add_option("--geotiff", opts->geotiff, "Output ground height as a GeoTIFF (Float32, NaN without ground) for QGIS / grid_map");
+  cmd->add_option("--max-step", opts->traversability.max_step, "[m] with --costmap: a ground step this high is lethal")
+      ->capture_default_str();
+  cmd->add_option("--max-slope", opts->traversability.max_slope_deg, "[deg] with --costmap: ground this steep is lethal")
+      ->capture_default_str();
+  cmd->add_option("--inflation", opts->traversability.inflation_radius,
+                  "[m] with --costmap: lethal cells raise the cost within this radius (99 exp(-3 d))")
+      ->capture_default_str();
   cmd->add_option("--bt", opts->bt, "Output OctoMap binary tree (.bt), for octovis and the octomap tools");
   cmd->add_flag("--points", opts->points, "Write the height-upsampled point cloud instead of boxes");
   cmd->add_option("--z-step", opts->z_step, "Vertical spacing of recovered points [m] (default: the cell size)");

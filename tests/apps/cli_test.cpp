@@ -291,6 +291,31 @@ TEST_F(CliTest, HybridMapExportsItsGridAndCompareScoresIt) {
   const CmdResult pgm = run("export " + path("m.hmap") + " --pgm " + path("grid"));
   ASSERT_EQ(pgm.code, 0) << pgm.out;
   EXPECT_NE(pgm.out.find("the map's own 2D grid and its columns judged"), std::string::npos) << pgm.out;
+  // The traversability layers beside it: a costmap whose lethal cells cover the grid's occupied ones,
+  // and the ground height as a GeoTIFF.
+  const CmdResult cost = run("export " + path("m.hmap") + " --costmap " + path("cost") + " --geotiff " + path("g.tif") +
+                             " --inflation 0.1");
+  ASSERT_EQ(cost.code, 0) << cost.out;
+  EXPECT_NE(cost.out.find("lethal"), std::string::npos) << cost.out;
+  EXPECT_NE(cost.out.find("ground height of"), std::string::npos) << cost.out;
+  {
+    std::ifstream g(dir_ / "grid.pgm", std::ios::binary), c(dir_ / "cost.pgm", std::ios::binary);
+    const std::string gb((std::istreambuf_iterator<char>(g)), {}), cb((std::istreambuf_iterator<char>(c)), {});
+    const auto body = [](const std::string& b) { std::size_t at = 0; for (int n = 0; n < 4; ++n) at = b.find('\n', at) + 1; return b.substr(at); };
+    const std::string gp = body(gb), cp = body(cb);
+    ASSERT_EQ(gp.size(), cp.size());  // the same box of cells
+    std::size_t occupied = 0;
+    for (std::size_t k = 0; k < gp.size(); ++k) {
+      if (gp[k] != '\0') continue;
+      ++occupied;
+      EXPECT_EQ(cp[k], '\0') << "occupied cell " << k << " is not lethal in the costmap";
+    }
+    EXPECT_GT(occupied, 0U);
+  }
+  const CmdResult bad_slope = run("export " + path("m.hmap") + " --costmap " + path("bad") + " --max-slope 0");
+  EXPECT_EQ(bad_slope.code, 2) << bad_slope.out;
+  EXPECT_NE(bad_slope.out.find("max_slope"), std::string::npos) << bad_slope.out;
+  EXPECT_FALSE(std::filesystem::exists(dir_ / "bad.pgm"));
   const CmdResult kept = run("export " + path("m.hmap") + " --pgm " + path("kept") + " --grid kept");
   ASSERT_EQ(kept.code, 0) << kept.out;
   EXPECT_NE(kept.out.find("kept scan by scan"), std::string::npos) << kept.out;

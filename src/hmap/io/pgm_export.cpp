@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <charconv>
 #include <climits>
+#include <cmath>
 #include <sstream>
 #include <vector>
 
@@ -64,6 +65,42 @@ void write_pgm_map(const std::filesystem::path& stem_in, const OccupancyGrid& gr
     << "negate: 0\n"
     << "occupied_thresh: " << shortest(params.occupied_thresh) << "\n"
     << "free_thresh: " << shortest(params.free_thresh) << "\n";
+  write_file_atomic(yaml, y.str());
+}
+
+void write_costmap_pgm(const std::filesystem::path& stem_in, const TraversabilityLayers& layers) {
+  std::filesystem::path stem = stem_in;
+  if (stem.extension() == ".pgm" || stem.extension() == ".yaml") stem.replace_extension();
+  if (layers.width <= 0 || layers.height <= 0) throw Error(stem.string() + ": the costmap holds no cell, nothing to export");
+  const auto width = static_cast<std::size_t>(layers.width);
+  const auto height = static_cast<std::size_t>(layers.height);
+  std::vector<unsigned char> pixels(width * height, 0);
+  for (std::size_t row = 0; row < height; ++row) {
+    for (std::size_t col = 0; col < width; ++col) {
+      const std::uint8_t c = layers.cost[row * width + col];
+      const int cost = c == TraversabilityLayers::kUnknown ? 100 : c;
+      // First PGM row: the northernmost (largest j).
+      pixels[(height - 1 - row) * width + col] = static_cast<unsigned char>(255 - std::lround(2.55 * cost));
+    }
+  }
+  const std::filesystem::path pgm = std::filesystem::path(stem).concat(".pgm");
+  const std::filesystem::path yaml = std::filesystem::path(stem).concat(".yaml");
+  std::ostringstream header;
+  header << "P5\n# hmap traversability cost (0 free .. 100 lethal), " << layers.cell_size << " m per pixel\n" << width << " "
+         << height << "\n255\n";
+  std::string bytes = header.str();
+  bytes.append(reinterpret_cast<const char*>(pixels.data()), pixels.size());
+  write_file_atomic(pgm, bytes);
+  std::ostringstream y;
+  y << "# hmap traversability costmap: map_server's scale mode reads back the cost 0..100; unknown cells are lethal\n"
+    << "image: " << pgm.filename().string() << "\n"
+    << "mode: scale\n"
+    << "resolution: " << shortest(layers.cell_size) << "\n"
+    << "origin: [" << shortest(static_cast<double>(layers.i_min) * layers.cell_size) << ", "
+    << shortest(static_cast<double>(layers.j_min) * layers.cell_size) << ", 0.0]\n"
+    << "negate: 0\n"
+    << "occupied_thresh: 0.995\n"
+    << "free_thresh: 0.005\n";
   write_file_atomic(yaml, y.str());
 }
 

@@ -4,6 +4,7 @@
 #include <filesystem>
 
 #include "hmap/occupancy/occupancy_grid.hpp"
+#include "hmap/occupancy/traversability.hpp"
 
 namespace hmap {
 
@@ -18,5 +19,12 @@ struct PgmExportParams {
 /// lower-left pixel, negate 0, occupied_thresh, free_thresh), both atomically. `stem` may end in
 /// .pgm or .yaml, or have no extension. Throws hmap::Error for an empty grid.
 void write_pgm_map(const std::filesystem::path& stem, const OccupancyGrid& grid, const PgmExportParams& params = {});
+
+/// The traversability cost as a Nav2 costmap-style map: `stem`.pgm with pixel 255 − round(2.55 ·
+/// cost) (negate 0, so map_server reads p = cost / 100) and `stem`.yaml with mode: scale,
+/// occupied_thresh 0.995, free_thresh 0.005, so map_server's scale mode gives back the cost:
+/// 0 → 0 (free), 100 → 100 (lethal), between 1..99 within one unit. A PGM has no alpha channel,
+/// so unknown cells are written lethal (the YAML says so). Throws hmap::Error for empty layers.
+void write_costmap_pgm(const std::filesystem::path& stem, const TraversabilityLayers& layers);
 
 }  // namespace hmap
