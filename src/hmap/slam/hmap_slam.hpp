@@ -116,6 +116,8 @@ class HmapSlam {
   std::optional<double> stamp_previous_;
   double last_sweep_ = 0.0;             // [s] time span of the last scan's points
   PointCloud deskewed_;
+  PointCloud first_points_;          // the first scan, kept until the second gives it a velocity
+  std::vector<float> first_times_;
   std::size_t scans_ = 0;
 };
 
