@@ -98,6 +98,15 @@ TEST(Imu, RefusesBadSamples) {
   p.slam.imu_tilt_weight = -1.0;
   s[1].gyro.x() = 0.0;
   EXPECT_THROW((void)ImuAttitudeFilter(s, p), Error);  // the parameters are validated
+  Params q;
+  q.slam.deskew = 2;
+  EXPECT_THROW(validate(q), Error);
+  q = Params{};
+  q.slam.imu_pitch = 2.0;
+  EXPECT_THROW(validate(q), Error);
+  q = Params{};
+  q.slam.imu_gravity_time_constant = 0.0;
+  EXPECT_THROW(validate(q), Error);
 }
 
 /// Walls all around and boxes, but no floor: nothing horizontal below the sensor except the box tops.
