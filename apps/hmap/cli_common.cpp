@@ -99,7 +99,8 @@ namespace {
 class RgbdFrames final : public FrameReader {
  public:
   explicit RgbdFrames(RgbdSequence seq) : seq_(std::move(seq)) {}
-  [[nodiscard]] PointCloud read(std::size_t index, CloudReadStats& stats) const override {
+  [[nodiscard]] PointCloud read(std::size_t index, CloudReadStats& stats, std::vector<float>* times_s) const override {
+    if (times_s != nullptr) times_s->clear();
     return read_rgbd_frame(seq_, index, &stats);
   }
 
@@ -196,14 +197,15 @@ ScanSource ScanSource::open(const ScanSourceOptions& o, const std::string& kitti
   return src;
 }
 
-PointCloud ScanSource::read(std::size_t index, CloudReadStats& stats) const {
-  if (frames) return frames->read(index, stats);
+PointCloud ScanSource::read(std::size_t index, CloudReadStats& stats, std::vector<float>* times_s) const {
+  if (times_s != nullptr) times_s->clear();
+  if (frames) return frames->read(index, stats, times_s);
   CloudReadStats s;
   const auto& path = scans.at(index);
   std::string ext = path.extension().string();
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   if (ext == ".png") throw InputError(path.string(), "", "a depth image needs its camera: use --rgbd DIR or --tum DIR");
-  PointCloud cloud = ext == ".vtk" ? read_vtk(path, &s) : read_cloud(path, &s);
+  PointCloud cloud = ext == ".vtk" ? read_vtk(path, &s) : read_cloud(path, &s, times_s);
   stats += s;
   return cloud;
 }

@@ -53,7 +53,9 @@ struct ScanSourceOptions {
 class FrameReader {
  public:
   virtual ~FrameReader() = default;
-  [[nodiscard]] virtual PointCloud read(std::size_t index, CloudReadStats& stats) const = 0;
+  /// `times_s` given: each point's time [s] when the frame carries one, else left empty.
+  [[nodiscard]] virtual PointCloud read(std::size_t index, CloudReadStats& stats,
+                                        std::vector<float>* times_s = nullptr) const = 0;
 };
 
 /// The scans of a run and their poses: a KITTI folder or a list of files.
@@ -72,9 +74,11 @@ struct ScanSource {
   static ScanSource open(const ScanSourceOptions& sensors, const std::string& kitti_dir,
                          const std::vector<std::string>& files, const std::string& poses_file,
                          std::size_t max_scans, bool poses_required);
-  [[nodiscard]] PointCloud read(std::size_t index, CloudReadStats& stats) const;
+  /// `times_s` given: each point's time [s] for PCD files and bag clouds that carry one, else empty.
+  [[nodiscard]] PointCloud read(std::size_t index, CloudReadStats& stats, std::vector<float>* times_s = nullptr) const;
 
   std::shared_ptr<const FrameReader> frames;  ///< set for RGB-D folders and bags
+  std::vector<double> stamps;                 ///< [s] per scan when the source has them (bags)
   std::string description;                    ///< e.g. "50 RGB-D frames of DIR (7-Scenes)"
 };
 

@@ -15,8 +15,8 @@ namespace {
 class BagFrames final : public FrameReader {
  public:
   explicit BagFrames(std::unique_ptr<ros::BagCloudReader> reader) : reader_(std::move(reader)) {}
-  [[nodiscard]] PointCloud read(std::size_t index, CloudReadStats& stats) const override {
-    return reader_->read(index, &stats);
+  [[nodiscard]] PointCloud read(std::size_t index, CloudReadStats& stats, std::vector<float>* times_s) const override {
+    return reader_->read(index, &stats, times_s);
   }
 
  private:
@@ -52,6 +52,7 @@ ScanSource open_bag_source(const ScanSourceOptions& sensors, std::size_t max_sca
     std::snprintf(name, sizeof name, "@%.6f", f.stamp);
     src.scans.emplace_back(sensors.cloud_topic + name);
     src.T_map_scan->push_back(f.T_map_cloud);
+    src.stamps.push_back(f.stamp);
   }
   src.poses_name = sensors.bag + " " + reader->pose_source();
   src.description = std::to_string(reader->frames().size()) + " clouds of " + sensors.cloud_topic + " in " + sensors.bag +

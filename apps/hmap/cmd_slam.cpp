@@ -1,6 +1,7 @@
 // hmap slam: scans in, poses estimated by Gauss-Newton matching on the HMAP (section IV-C), the
 // map built at those poses.
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -9,11 +10,15 @@
 #include "hmap/core/sensor_profile.hpp"
 #include "hmap/io/atomic_file.hpp"
 #include "hmap/io/hmap_file.hpp"
+#include "hmap/io/imu_text.hpp"
 #include "hmap/io/kitti.hpp"
 #include "hmap/io/png.hpp"
 #include "hmap/io/poses.hpp"
 #include "hmap/slam/hmap_slam.hpp"
 #include "render.hpp"
+#ifdef HMAP_HAVE_ROS
+#include "hmap/ros/bag_reader.hpp"
+#endif
 
 namespace hmap::cli {
 
@@ -27,6 +32,9 @@ struct SlamOptions {
   std::string attitude_from;
   std::string odometry;
   std::string gt;
+  std::string imu;
+  std::string imu_topic;
+  std::vector<double> imu_rpy;
   std::size_t scans = 0;
   std::string out;
 };
@@ -45,16 +53,43 @@ PoseList read_scan_poses(const std::string& path, std::size_t scans, const std::
   return poses;
 }
 
+/// The IMU samples of the run: --imu FILE, else the bag's sensor_msgs/Imu topic (--imu-topic when
+/// it has several); none otherwise. `from` says where they came from.
+std::optional<ImuSamples> load_imu(const SlamOptions& o, std::string& from) {
+  if (!o.imu.empty()) {
+    from = o.imu;
+    return read_imu_text(o.imu);
+  }
+#ifdef HMAP_HAVE_ROS
+  if (!o.sensors.bag.empty()) {
+    if (const auto topic = ros::bag_imu_topic(o.sensors.bag, o.imu_topic)) {
+      from = o.sensors.bag + " " + *topic;
+      return ros::read_bag_imu(o.sensors.bag, *topic);
+    }
+    return std::nullopt;
+  }
+#endif
+  if (!o.imu_topic.empty()) throw Error("--imu-topic needs a bag (--bag)");
+  return std::nullopt;
+}
+
 void run_slam(const SlamOptions& o) {
   Params params = o.params.resolve();
+  if (!o.imu_rpy.empty()) {
+    params.slam.imu_roll = o.imu_rpy[0];
+    params.slam.imu_pitch = o.imu_rpy[1];
+    params.slam.imu_yaw = o.imu_rpy[2];
+    validate(params);
+  }
   const ScanSource src = ScanSource::open(o.sensors, o.kitti, o.files, "", o.scans, /*poses_required=*/false);
   if (!src.description.empty()) std::fprintf(stderr, "input: %s\n", src.description.c_str());
   // Defaults the first scan can tell (the ring spacing), for parameters left at the preset's value.
   CloudReadStats read_stats;
   std::optional<PointCloud> first;
+  std::vector<float> first_times;
   std::string chosen_text;
   if (!src.scans.empty()) {
-    first = src.read(0, read_stats);
+    first = src.read(0, read_stats, &first_times);
     const SensorProfile sensor = profile_scan(*first);
     for (const ChosenDefault& c : adapt_to_sensor(params, hmap::preset(o.params.preset), sensor)) {
       char line[256];
@@ -80,9 +115,20 @@ void run_slam(const SlamOptions& o) {
     T_cam_velo = seq.T_cam_velo;
     times = seq.times;
   }
-  if (times.size() != n) {
+  if (times.size() != n && src.stamps.size() == n) times = src.stamps;
+  // Real stamps (times.txt, a bag's) drive the IMU and the deskewing's velocity; without them the
+  // scan index stands in for poses_tum.txt and a sweep's span for the scan period.
+  const bool stamped = times.size() == n;
+  if (!stamped) {
     times.resize(n);
     for (std::size_t k = 0; k < n; ++k) times[k] = static_cast<double>(k);
+  }
+  std::string imu_from;
+  const std::optional<ImuSamples> imu_samples = load_imu(o, imu_from);
+  std::optional<slam::ImuAttitudeFilter> imu;
+  if (imu_samples) {
+    if (!stamped) throw Error("an IMU needs the scans' stamps: a KITTI folder with times.txt, or a bag");
+    imu.emplace(*imu_samples, params);
   }
   std::optional<PoseList> attitude;
   std::optional<PoseList> odometry;
@@ -114,10 +160,14 @@ void run_slam(const SlamOptions& o) {
   double score_sum = 0.0;
   std::string log = "scan,matched,converged,iterations,initial_cost,final_cost,score,hvoxels,degenerate,coarse_search,"
                     "skipped,eig0,eig1,eig2,guess_x,guess_y,guess_yaw,x,y,yaw,z,roll,pitch,attitude_fit,surfaces,surface_rms,"
-                    "observable_x,observable_y,observable_z,observable_roll,observable_pitch,observable_yaw,planar_passes,ms\n";
+                    "observable_x,observable_y,observable_z,observable_roll,observable_pitch,observable_yaw,planar_passes,deskewed,"
+                    "imu,ms\n";
   Progress progress("slam", n);
+  std::size_t deskewed = 0;
+  std::vector<float> point_times;
   for (std::size_t k = 0; k < n; ++k) {
-    const PointCloud cloud = k == 0 && first ? std::move(*first) : src.read(k, read_stats);
+    if (k == 0) point_times = first_times;
+    const PointCloud cloud = k == 0 && first ? std::move(*first) : src.read(k, read_stats, &point_times);
     const auto t0 = Clock::now();
     std::optional<slam::Attitude> att;
     if (attitude) att = slam::attitude_of((*attitude)[k]);
@@ -130,7 +180,19 @@ void run_slam(const SlamOptions& o) {
       // The first scan defines the map frame: put it where the reference trajectory starts.
       guess = slam::planar_of(odometry ? odometry->front() : truth->front());
     }
-    const slam::SlamStep step = slam.process(cloud, att, guess);
+    slam::ScanInput in;
+    in.points_sensor = cloud;
+    in.times = point_times;
+    if (stamped) in.stamp = times[k];
+    in.attitude = att;
+    in.guess = guess;
+    if (imu) {
+      imu->set_body_velocity(slam.velocity().linear);
+      const auto hi = std::max_element(point_times.begin(), point_times.end());
+      in.imu = imu->prior_at(times[k], hi == point_times.end() ? 0.0 : static_cast<double>(*hi));
+    }
+    const slam::SlamStep step = slam.process(in);
+    deskewed += step.deskewed ? 1 : 0;
     const double ms = ms_since(t0);
     ms_total += ms;
     {
@@ -141,13 +203,14 @@ void run_slam(const SlamOptions& o) {
       char line[768];
       std::snprintf(line, sizeof line,
                     "%zu,%d,%d,%d,%.6g,%.6g,%.6g,%zu,%d,%d,%d,%.6g,%.6g,%.6g,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,"
-                    "%d,%zu,%.4f,%d,%d,%d,%d,%d,%d,%d,%.3f\n",
+                    "%d,%zu,%.4f,%d,%d,%d,%d,%d,%d,%d,%d,%d,%.3f\n",
                     k, step.matched ? 1 : 0, m.converged ? 1 : 0, m.iterations, m.initial_cost, m.final_cost, m.score,
                     m.hvoxels_used, m.degenerate ? 1 : 0, m.coarse_search ? 1 : 0, m.skipped ? 1 : 0, m.eigenvalues(0),
                     m.eigenvalues(1), m.eigenvalues(2), step.guess.x, step.guess.y, step.guess.yaw, xi.x, xi.y, xi.yaw,
                     at.z, at.roll, at.pitch, af.ran ? 1 : 0, af.surfaces, af.rms, step.observable[0] ? 1 : 0,
                     step.observable[1] ? 1 : 0, step.observable[2] ? 1 : 0, step.observable[3] ? 1 : 0,
-                    step.observable[4] ? 1 : 0, step.observable[5] ? 1 : 0, step.planar_passes, ms);
+                    step.observable[4] ? 1 : 0, step.observable[5] ? 1 : 0, step.planar_passes, step.deskewed ? 1 : 0,
+                    step.imu_used ? 1 : 0, ms);
       log += line;
     }
     estimate.push_back(step.T_map_sensor);
@@ -182,13 +245,17 @@ void run_slam(const SlamOptions& o) {
       "SLAM on %zu scans: %.1f ms per scan (%.1f scans/s, matching and map update), %.1f Gauss-Newton "
       "iterations per scan, %zu of %zu matches converged, %zu degenerate, %zu needed the coarse search, "
       "%zu kept the guess (fewer than %zu HVoxels), mean M_H %.3f. The map has %zu cells and %zu HVoxels (cell %.3f m). Wrote %s/{poses.txt, poses_tum.txt, "
-      "map.hmap, trajectory.png, matches.csv}%s. Attitude (z, roll, pitch): %s.%s%s\n",
+      "map.hmap, trajectory.png, matches.csv}%s. Attitude (z, roll, pitch): %s.%s%s%s Deskewed: %zu of %zu scans "
+      "(per-point time).\n",
       n, n > 0 ? ms_total / static_cast<double>(n) : 0.0,
       ms_total > 0.0 ? 1000.0 * static_cast<double>(n) / ms_total : 0.0, static_cast<double>(iterations) / matched,
       converged, n > 0 ? n - 1 : 0, degenerate, coarse, skipped, slam::ScanMatcher::kMinHVoxels, score_sum / scored,
       st.cells, st.hvoxels, params.map.cell_size, o.out.c_str(), truth ? " (truth in white, estimate in magenta)" : "",
-      attitude ? "given (the poses of the input or --attitude-from)" : "estimated from the scans (floor normal + map surfaces)",
-      chosen_text.empty() ? "" : " Chosen from the first scan:", chosen_text.c_str());
+      attitude ? "given (the poses of the input or --attitude-from)"
+               : imu ? "estimated from the scans with the IMU's gravity as prior"
+                     : "estimated from the scans (floor normal + map surfaces)",
+      chosen_text.empty() ? "" : " Chosen from the first scan:", chosen_text.c_str(),
+      imu ? (" IMU: " + std::to_string(imu_samples->size()) + " samples from " + imu_from + ".").c_str() : "", deskewed, n);
 }
 
 }  // namespace
@@ -204,6 +271,15 @@ void add_slam_command(CLI::App& app) {
                   "Odometry poses: the initial guess moves by their increments ('source': the poses of the RGB-D "
                   "folder or bag)");
   cmd->add_option("--gt", opts->gt, "True poses, drawn in trajectory.png");
+  cmd->add_option("--imu", opts->imu,
+                  "IMU text file, one sample per line: t gx gy gz ax ay az [qx qy qz qw] (s, rad/s, m/s^2; spaces or "
+                  "commas; '#' comments; ns stamps when all exceed 1e14). Needs the scans' stamps (times.txt). A bag's "
+                  "sensor_msgs/Imu topic is used without it");
+  cmd->add_option("--imu-topic", opts->imu_topic, "The bag's sensor_msgs/Imu topic, when it has several");
+  cmd->add_option("--imu-rpy", opts->imu_rpy,
+                  "IMU mounting R_sensor_imu = Rz(yaw)Ry(pitch)Rx(roll) as ROLL PITCH YAW [rad] (slam.imu_roll, "
+                  "imu_pitch, imu_yaw; default identity)")
+      ->expected(3);
   cmd->add_option("--scans", opts->scans, "Use only the first N scans");
   cmd->add_option("--out,-o", opts->out, "Output folder")->required();
   opts->params.add_to(*cmd);

@@ -320,3 +320,65 @@ TEST(PcdRealData, ReadsHdl32BinaryPair) {
 
 }  // namespace
 }  // namespace hmap
+
+namespace hmap {
+namespace {
+
+using test::put;
+
+class PcdTimeTest : public test::IoTest {};
+
+TEST_F(PcdTimeTest, OusterStyleNanosecondsBesideTheKeptPoints) {
+  // Binary, uint32 `t` in ns from the sweep's start (Ouster); the NaN point is dropped with its time.
+  std::string data;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const float xs[3] = {1.0F, nan, 3.0F};
+  const std::uint32_t ts[3] = {0, 50'000'000, 99'000'000};
+  for (int i = 0; i < 3; ++i) {
+    put<float>(data, xs[i]);
+    put<float>(data, 0.0F);
+    put<float>(data, 0.5F);
+    put<std::uint32_t>(data, ts[i]);
+  }
+  std::vector<float> times;
+  const PointCloud cloud =
+      read_pcd(write("t.pcd", header("x y z t", "4 4 4 4", "F F F U", "1 1 1 1", 3, 1, "binary") + data), nullptr, &times);
+  ASSERT_EQ(cloud.size(), 2U);
+  ASSERT_EQ(times.size(), 2U);
+  EXPECT_FLOAT_EQ(times[0], 0.0F);
+  EXPECT_FLOAT_EQ(times[1], 0.099F);
+}
+
+TEST_F(PcdTimeTest, SecondsMillisecondsAndAbsoluteStamps) {
+  const auto read = [&](const std::string& name, const std::string& field, const std::string& values) {
+    std::vector<float> times;
+    (void)read_pcd(write(name, header("x y z " + field, "4 4 4 8", "F F F F", "1 1 1 1", 2, 1, "ascii") + values),
+                   nullptr, &times);
+    return times;
+  };
+  std::vector<float> t = read("s.pcd", "time", "1 0 0 -0.05\n2 0 0 0.05\n");  // Velodyne: s, around the stamp
+  ASSERT_EQ(t.size(), 2U);
+  EXPECT_FLOAT_EQ(t[0], -0.05F);
+  EXPECT_FLOAT_EQ(t[1], 0.05F);
+  t = read("ms.pcd", "t", "1 0 0 0\n2 0 0 100\n");  // 100 ms
+  EXPECT_FLOAT_EQ(t[1], 0.1F);
+  t = read("abs.pcd", "timestamp", "1 0 0 1700000000.25\n2 0 0 1700000000.35\n");  // unix s: from the first point
+  EXPECT_FLOAT_EQ(t[0], 0.0F);
+  EXPECT_NEAR(t[1], 0.1F, 1e-6);
+  // No time field: empty; a non-finite time is refused.
+  t = read("none.pcd", "intensity", "1 0 0 7\n2 0 0 8\n");
+  EXPECT_TRUE(t.empty());
+  EXPECT_TRUE(test::contains(test::input_error_of([&] { (void)read("bad.pcd", "t", "1 0 0 nan\n2 0 0 1\n"); }),
+                             "bad.pcd: line 12"));
+}
+
+TEST_F(PcdTimeTest, WithoutTheTimeRequestTheCloudIsTheSame) {
+  const auto path = write("same.pcd", header("x y z t", "4 4 4 4", "F F F F", "1 1 1 1", 2, 1, "ascii") +
+                                          "1 2 3 0\n4 5 6 0.1\n");
+  std::vector<float> times;
+  EXPECT_EQ(read_pcd(path), read_pcd(path, nullptr, &times));
+  EXPECT_EQ(times.size(), 2U);
+}
+
+}  // namespace
+}  // namespace hmap

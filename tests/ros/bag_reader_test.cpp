@@ -235,5 +235,36 @@ TEST(PointCloud2Decode, LayoutChecks) {
   fails(c, "field x has unknown datatype 9");
 }
 
+TEST_F(BagReaderTest, ImuTopicAndPerPointTime) {
+  const fs::path bag = dir_ / "imu.bag";
+  // The only Imu topic is found by itself; named, it is checked.
+  EXPECT_EQ(ros::bag_imu_topic(bag, "").value_or(""), "/imu");
+  EXPECT_EQ(ros::bag_imu_topic(bag, "/imu").value_or(""), "/imu");
+  EXPECT_NE(error_of([&] { (void)ros::bag_imu_topic(bag, "/odom"); }).find("not a sensor_msgs/Imu topic"), std::string::npos);
+  EXPECT_FALSE(ros::bag_imu_topic(dir_ / "odom.bag", "").has_value());
+  EXPECT_NE(error_of([&] { (void)ros::bag_imu_topic(dir_ / "imu_two.bag", ""); }).find("--imu-topic"), std::string::npos);
+  const ImuSamples imu = ros::read_bag_imu(bag, "/imu");
+  ASSERT_GT(imu.size(), 100U);
+  EXPECT_NEAR(imu[1].t - imu[0].t, 0.01, 1e-6);
+  EXPECT_DOUBLE_EQ(imu[5].gyro.x(), 0.05);
+  EXPECT_DOUBLE_EQ(imu[5].gyro.z(), 0.3);
+  EXPECT_DOUBLE_EQ(imu[5].accel.z(), 9.81);
+  EXPECT_FALSE(imu[5].orientation.has_value());  // covariance[0] = -1: no orientation
+  // The clouds carry their uint32 ns field t as seconds beside the points; without asking, none.
+  ros::BagCloudOptions o;
+  o.cloud_topic = "/os_cloud";
+  o.pose_topic = "/odom";
+  const ros::BagCloudReader reader(bag, o);
+  std::vector<float> times;
+  const PointCloud cloud = reader.read(1, nullptr, &times);
+  ASSERT_EQ(times.size(), cloud.size());
+  EXPECT_EQ(cloud, expected_scan(1));
+  EXPECT_FLOAT_EQ(times.front(), 0.0F);
+  EXPECT_NEAR(times.back(), 0.099F, 1e-6);
+  std::vector<float> none;
+  (void)ros::BagCloudReader(dir_ / "odom.bag", o).read(0, nullptr, &none);
+  EXPECT_TRUE(none.empty());
+}
+
 }  // namespace
 }  // namespace hmap

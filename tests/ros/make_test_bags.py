@@ -16,6 +16,10 @@ Bags written to OUT_DIR (stamps = balm_os0/times.txt; poses = balm_os0/poses.txt
                   row padding; /odom as in odom.bag
   nopose.bag      /os_cloud at t_k, /odom only 10 s after the last cloud
   tiny.bag        one 20-point cloud and one odometry message (for the damaged-file tests)
+  imu.bag         /os_cloud with a uint32 field t (ns, 0..99 ms over each cloud's points), /odom as
+                  in odom.bag, /imu sensor_msgs/Imu at 100 Hz from t_0 - 0.1 s: gyro (0.01 k,
+                  -0.02, 0.3), accel (0, 0, 9.81), orientation covariance[0] = -1 (none)
+  imu_two.bag     /imu and /imu_b (two Imu topics), one message each
 """
 import sys
 
@@ -25,7 +29,7 @@ import rosbag
 import rospy
 from geometry_msgs.msg import TransformStamped
 from nav_msgs.msg import Odometry
-from sensor_msgs.msg import PointCloud2, PointField
+from sensor_msgs.msg import Imu, PointCloud2, PointField
 from tf2_msgs.msg import TFMessage
 
 
@@ -181,6 +185,40 @@ def main():
         late = rospy.Time.from_sec(float(times[scans - 1]) + 10.0)
         bag.write('/odom', odometry(late, poses[0][0], poses[0][1]), late)
         write_clouds(bag)
+
+    def imu_msg(t, k):
+        m = Imu()
+        m.header.stamp = t
+        m.header.frame_id = 'os_imu'
+        m.angular_velocity.x, m.angular_velocity.y, m.angular_velocity.z = 0.01 * k, -0.02, 0.3
+        m.linear_acceleration.x, m.linear_acceleration.y, m.linear_acceleration.z = 0.0, 0.0, 9.81
+        m.orientation_covariance[0] = -1.0
+        return m
+
+    with rosbag.Bag(f'{out_dir}/imu.bag', 'w') as bag:
+        for k in range(scans):
+            bag.write('/odom', odometry(stamps[k], poses[k][0], poses[k][1]), stamps[k])
+            pts = clouds[k]
+            msg = PointCloud2()
+            msg.header.stamp = stamps[k]
+            msg.header.frame_id = 'os_sensor'
+            msg.height, msg.width = 1, len(pts)
+            msg.fields = [PointField(name, 4 * i, PointField.FLOAT32, 1) for i, name in enumerate(['x', 'y', 'z'])]
+            msg.fields.append(PointField('t', 12, PointField.UINT32, 1))
+            msg.is_bigendian, msg.point_step, msg.row_step, msg.is_dense = False, 16, 16 * len(pts), True
+            n = len(pts)
+            msg.data = b''.join(struct.pack('<fffI', p[0], p[1], p[2], (99000000 * i) // max(1, n - 1))
+                                for i, p in enumerate(pts))
+            bag.write('/os_cloud', msg, stamps[k])
+        t0 = float(times[0]) - 0.1
+        count = int((float(times[scans - 1]) - t0) * 100) + 10
+        for k in range(count):
+            t = rospy.Time.from_sec(t0 + 0.01 * k)
+            bag.write('/imu', imu_msg(t, k), t)
+
+    with rosbag.Bag(f'{out_dir}/imu_two.bag', 'w') as bag:
+        bag.write('/imu', imu_msg(stamps[0], 0), stamps[0])
+        bag.write('/imu_b', imu_msg(stamps[0], 1), stamps[0])
 
     with rosbag.Bag(f'{out_dir}/tiny.bag', 'w') as bag:
         bag.write('/odom', odometry(stamps[0], poses[0][0], poses[0][1]), stamps[0])

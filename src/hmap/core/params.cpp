@@ -155,6 +155,20 @@ std::vector<ParamRef> param_refs(Params& p) {
                   s.level_prior));
   r.push_back(ref("slam.max_floor_tilt", "rad", "steepest plane taken for a scan's floor",
                   s.max_floor_tilt));
+  r.push_back(ref("slam.imu_gravity_time_constant", "s",
+                  "time constant of the IMU's complementary filter (accelerometer gravity vs gyro)",
+                  s.imu_gravity_time_constant));
+  r.push_back(ref("slam.imu_accel_gate", "-",
+                  "|accel| farther than this fraction of g from g: the sample does not correct the tilt",
+                  s.imu_accel_gate));
+  r.push_back(ref("slam.imu_tilt_weight", "-",
+                  "pull of the attitude fit toward the IMU's gravity (fraction of the map pairs' tilt information)",
+                  s.imu_tilt_weight));
+  r.push_back(ref("slam.imu_roll", "rad", "IMU mounting in the sensor frame, roll of R_sensor_imu", s.imu_roll));
+  r.push_back(ref("slam.imu_pitch", "rad", "IMU mounting in the sensor frame, pitch of R_sensor_imu", s.imu_pitch));
+  r.push_back(ref("slam.imu_yaw", "rad", "IMU mounting in the sensor frame, yaw of R_sensor_imu", s.imu_yaw));
+  r.push_back(ref_int("slam.deskew", "-", "1: points with a time are moved to the scan's reference time; 0: off",
+                      s.deskew));
   return r;
 }
 
@@ -246,6 +260,17 @@ void validate(const Params& p) {
   require(s.level_prior >= 0.0 && s.level_prior <= 100.0, "slam.level_prior", s.level_prior, "in [0, 100]");
   require(s.max_floor_tilt >= 0.0 && s.max_floor_tilt <= 1.2, "slam.max_floor_tilt", s.max_floor_tilt,
           "in [0, 1.2]");
+  require(s.imu_gravity_time_constant > 0.0 && s.imu_gravity_time_constant <= 1000.0,
+          "slam.imu_gravity_time_constant", s.imu_gravity_time_constant, "in (0, 1000]");
+  require(s.imu_accel_gate >= 0.0 && s.imu_accel_gate <= 10.0, "slam.imu_accel_gate", s.imu_accel_gate,
+          "in [0, 10]");
+  require(s.imu_tilt_weight >= 0.0 && s.imu_tilt_weight <= 1e6, "slam.imu_tilt_weight", s.imu_tilt_weight,
+          "in [0, 1e6]");
+  constexpr double kPi = 3.14159265358979323846;
+  require(std::abs(s.imu_roll) <= kPi, "slam.imu_roll", s.imu_roll, "in [-pi, pi]");
+  require(std::abs(s.imu_pitch) <= 0.5 * kPi, "slam.imu_pitch", s.imu_pitch, "in [-pi/2, pi/2]");
+  require(std::abs(s.imu_yaw) <= kPi, "slam.imu_yaw", s.imu_yaw, "in [-pi, pi]");
+  require(s.deskew == 0 || s.deskew == 1, "slam.deskew", s.deskew, "0 or 1");
 }
 
 }  // namespace hmap

@@ -96,6 +96,19 @@ struct SlamParams {
   double level_prior = 0.02;               ///< [-] pull of the attitude fit toward a level floor, as a fraction
                                            ///< of the map's tilt information (0 = the map alone)
   double max_floor_tilt = 0.35;            ///< [rad] steepest plane taken for a scan's floor (~20°)
+  // The IMU prior (slam/imu.hpp), when the recording has an IMU.
+  double imu_gravity_time_constant = 1.0;  ///< [s] τ of the complementary filter: the accelerometer's
+                                           ///< gravity corrects the gyro's tilt with gain dt / (τ + dt)
+  double imu_accel_gate = 0.2;             ///< [-] samples whose |accel| differs from g by more than this
+                                           ///< fraction of g do not correct the tilt (the sensor accelerates)
+  double imu_tilt_weight = 1.0;            ///< [-] pull of the attitude fit toward the IMU's gravity, as a
+                                           ///< fraction of the map pairs' tilt information (1: as much)
+  double imu_roll = 0.0;                   ///< [rad] R_sensor_imu = Rz(yaw)·Ry(pitch)·Rx(roll): the IMU's
+  double imu_pitch = 0.0;                  ///< [rad]   mounting in the sensor frame (identity by default)
+  double imu_yaw = 0.0;                    ///< [rad]
+  // Per-point time (slam/deskew.hpp).
+  int deskew = 1;                          ///< [-] 1: points carrying a time are moved to the scan's
+                                           ///< reference time by constant velocity; 0: off
 };
 
 /// All parameters together.

@@ -2,6 +2,7 @@
 // One entry point for every point cloud format hmap reads, chosen by file extension.
 
 #include <filesystem>
+#include <vector>
 
 #include "hmap/core/types.hpp"
 #include "hmap/io/cloud_stats.hpp"
@@ -10,6 +11,9 @@ namespace hmap {
 
 /// Reads a point cloud by its extension, in any letter case: .pcd (read_pcd), .ply (read_ply),
 /// .bin (read_kitti_bin), .xyz .txt .csv .pts (read_xyz). Throws InputError for another extension.
-[[nodiscard]] PointCloud read_cloud(const std::filesystem::path& path, CloudReadStats* stats = nullptr);
+/// `times_s` given: each point's time [s] for a PCD with a t / time / timestamp field (read_pcd),
+/// empty for every other file.
+[[nodiscard]] PointCloud read_cloud(const std::filesystem::path& path, CloudReadStats* stats = nullptr,
+                                    std::vector<float>* times_s = nullptr);
 
 }  // namespace hmap

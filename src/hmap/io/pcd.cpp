@@ -3,6 +3,8 @@
 #include <lzf.h>
 
 #include <array>
+#include <cmath>
+#include <optional>
 #include <cstdint>
 #include <limits>
 #include <memory>
@@ -11,6 +13,7 @@
 #include <vector>
 
 #include "hmap/core/error.hpp"
+#include "hmap/io/point_time.hpp"
 #include "hmap/io/read_support.hpp"
 
 namespace hmap {
@@ -58,9 +61,18 @@ class PcdReader {
   PcdReader(const std::filesystem::path& path, std::string_view bytes)
       : source_(path.string()), bytes_(bytes) {}
 
-  PointCloud read(CloudReadStats& stats) {
+  PointCloud read(CloudReadStats& stats, std::vector<float>* times) {
     parse_header();
     const std::array<Coordinate, 3> xyz = {coordinate("x"), coordinate("y"), coordinate("z")};
+    if (times != nullptr) {
+      times->clear();
+      for (const char* name : kPointTimeFields) {
+        if (time_.has_value()) break;
+        for (const PcdField& f : header_.fields) {
+          if (f.name == name) time_ = coordinate(name);
+        }
+      }
+    }
     PointCloud cloud;
     switch (header_.encoding) {
       case PcdEncoding::kAscii:
@@ -74,6 +86,7 @@ class PcdReader {
         break;
     }
     stats.points_read = header_.points;
+    if (times != nullptr && time_) *times = point_times_to_seconds(raw_times_);
     return cloud;
   }
 
@@ -260,7 +273,7 @@ class PcdReader {
 
   void reserve(PointCloud& cloud) const { cloud.reserve(static_cast<std::size_t>(header_.points)); }
 
-  void read_ascii(const std::array<Coordinate, 3>& xyz, PointCloud& cloud, CloudReadStats& stats) const {
+  void read_ascii(const std::array<Coordinate, 3>& xyz, PointCloud& cloud, CloudReadStats& stats) {
     // A point line holds value_count tokens of at least one character, each followed by a
     // separator or newline (the last line may lack it): a bound checked before reserving.
     const std::uint64_t min_line_bytes = 2 * std::uint64_t{header_.value_count};
@@ -290,7 +303,16 @@ class PcdReader {
           fail(line_position(lines.line_number()), detail::quoted(token) + " is not a number");
         }
       }
+      const std::size_t before = cloud.size();
       detail::append_if_finite(cloud, v[0], v[1], v[2], stats.non_finite_dropped);
+      if (time_ && cloud.size() > before) {
+        const std::string_view token = tokens[time_->value_index];
+        double t = 0.0;
+        if (!detail::parse_double(token, t) || !std::isfinite(t)) {
+          fail(line_position(lines.line_number()), "time " + detail::quoted(token) + " is not a finite number");
+        }
+        raw_times_.push_back(t);
+      }
       ++read;
     }
     if (read < header_.points) {
@@ -308,20 +330,24 @@ class PcdReader {
     }
   }
 
-  void read_binary(const std::array<Coordinate, 3>& xyz, PointCloud& cloud, CloudReadStats& stats) const {
+  void read_binary(const std::array<Coordinate, 3>& xyz, PointCloud& cloud, CloudReadStats& stats) {
     check_binary_size(header_.data_offset, data_bytes());
     reserve(cloud);
     const char* record = bytes_.data() + header_.data_offset;
     // PCD binary data is in the writer's byte order, which PCL takes to be the reader's.
     for (std::uint64_t i = 0; i < header_.points; ++i, record += header_.point_bytes) {
+      const std::size_t before = cloud.size();
       detail::append_if_finite(cloud, detail::load_scalar(record + xyz[0].byte_offset, xyz[0].type, false),
                                detail::load_scalar(record + xyz[1].byte_offset, xyz[1].type, false),
                                detail::load_scalar(record + xyz[2].byte_offset, xyz[2].type, false),
                                stats.non_finite_dropped);
+      if (time_ && cloud.size() > before) {
+        keep_time(detail::load_scalar(record + time_->byte_offset, time_->type, false), i);
+      }
     }
   }
 
-  void read_compressed(const std::array<Coordinate, 3>& xyz, PointCloud& cloud, CloudReadStats& stats) const {
+  void read_compressed(const std::array<Coordinate, 3>& xyz, PointCloud& cloud, CloudReadStats& stats) {
     // Layout: uint32 compressed size, uint32 uncompressed size, LZF block.
     const std::size_t offset = header_.data_offset;
     if (data_bytes() < 8) {
@@ -366,26 +392,46 @@ class PcdReader {
       column[k] = soa.get() + start;
       stride[k] = header_.fields[xyz[k].field].bytes;
     }
+    const char* time_column = nullptr;
+    std::size_t time_stride = 0;
+    if (time_) {
+      std::size_t start = 0;
+      for (std::size_t f = 0; f < time_->field; ++f) start += header_.fields[f].bytes * points;
+      time_column = soa.get() + start;
+      time_stride = header_.fields[time_->field].bytes;
+    }
     reserve(cloud);
     for (std::size_t i = 0; i < points; ++i) {
+      const std::size_t before = cloud.size();
       detail::append_if_finite(cloud, detail::load_scalar(column[0] + i * stride[0], xyz[0].type, false),
                                detail::load_scalar(column[1] + i * stride[1], xyz[1].type, false),
                                detail::load_scalar(column[2] + i * stride[2], xyz[2].type, false),
                                stats.non_finite_dropped);
+      if (time_column != nullptr && cloud.size() > before) {
+        keep_time(detail::load_scalar(time_column + i * time_stride, time_->type, false), i);
+      }
     }
+  }
+
+  /// A binary point's time: refused when not finite (a point without a time cannot be deskewed).
+  void keep_time(double t, std::uint64_t index) {
+    if (!std::isfinite(t)) fail("point " + std::to_string(index), "its time is not a finite number");
+    raw_times_.push_back(t);
   }
 
   std::string source_;
   std::string_view bytes_;
   PcdHeader header_;
+  std::optional<Coordinate> time_;  // the per-point time field, when asked for and present
+  std::vector<double> raw_times_;   // per kept point, in the file's unit
 };
 
 }  // namespace
 
-PointCloud read_pcd(const std::filesystem::path& path, CloudReadStats* stats) {
+PointCloud read_pcd(const std::filesystem::path& path, CloudReadStats* stats, std::vector<float>* times_s) {
   const std::string bytes = detail::read_file_bytes(path);
   CloudReadStats local;
-  PointCloud cloud = PcdReader(path, bytes).read(local);
+  PointCloud cloud = PcdReader(path, bytes).read(local, times_s);
   if (stats != nullptr) *stats = local;
   return cloud;
 }

@@ -2,6 +2,7 @@
 // Reader for the Point Cloud Library's PCD format (v0.7; v0.6 and files without VERSION too).
 
 #include <filesystem>
+#include <vector>
 
 #include "hmap/core/types.hpp"
 #include "hmap/io/cloud_stats.hpp"
@@ -13,6 +14,10 @@ namespace hmap {
 /// or 8), I or U (SIZE 1, 2, 4 or 8). Points with a NaN or infinite coordinate (the invalid pixels
 /// of organized clouds) are dropped and counted in `stats`. Throws InputError naming the file and
 /// the line or byte for a header that contradicts itself or the file size, and for truncated data.
-[[nodiscard]] PointCloud read_pcd(const std::filesystem::path& path, CloudReadStats* stats = nullptr);
+/// `times_s` given: filled with each kept point's time in seconds from the scan's reference when
+/// the file has a field t, time or timestamp (COUNT 1; units as point_times_to_seconds detects
+/// them), left empty when it has none. A time that is not finite is refused.
+[[nodiscard]] PointCloud read_pcd(const std::filesystem::path& path, CloudReadStats* stats = nullptr,
+                                  std::vector<float>* times_s = nullptr);
 
 }  // namespace hmap

@@ -12,6 +12,7 @@
 #include <set>
 
 #include "hmap/core/error.hpp"
+#include "hmap/io/point_time.hpp"
 #include "hmap/io/read_support.hpp"
 #include "hmap/ros/rosbag_access.hpp"
 
@@ -322,8 +323,9 @@ BagInfo read_bag_info(const fs::path& path) {
 }
 
 void decode_pointcloud2(const PointCloud2Data& cloud, PointCloud& points, CloudReadStats* stats,
-                        const std::string& source, const std::string& position) {
+                        const std::string& source, const std::string& position, std::vector<float>* times_s) {
   points.clear();
+  if (times_s != nullptr) times_s->clear();
   struct Axis {
     std::uint32_t offset = 0;
     detail::ScalarType type = detail::ScalarType::kFloat32;
@@ -350,6 +352,19 @@ void decode_pointcloud2(const PointCloud2Data& cloud, PointCloud& points, CloudR
   for (int a = 0; a < 3; ++a) {
     if (!axes[a].found) throw InputError(source, position, std::string("the cloud has no ") + kNames[a] + " field");
   }
+  Axis time_axis;
+  if (times_s != nullptr) {
+    for (const char* name : kPointTimeFields) {
+      for (const auto& f : cloud.fields) {
+        if (time_axis.found || f.name != name || f.datatype < 1 || f.datatype > 8) continue;
+        time_axis = {f.offset, kTypes[f.datatype - 1], true};
+        if (static_cast<std::uint64_t>(f.offset) + detail::scalar_size(time_axis.type) > cloud.point_step) {
+          throw InputError(source, position, "field " + f.name + " lies outside the point step");
+        }
+      }
+    }
+  }
+  std::vector<double> raw_times;
   const std::uint64_t row_bytes = static_cast<std::uint64_t>(cloud.width) * cloud.point_step;
   if (cloud.row_step < row_bytes) {
     throw InputError(source, position, "row_step " + std::to_string(cloud.row_step) + " is less than width " +
@@ -369,15 +384,72 @@ void decode_pointcloud2(const PointCloud2Data& cloud, PointCloud& points, CloudR
     const char* row = base + static_cast<std::size_t>(r) * cloud.row_step;
     for (std::uint32_t c = 0; c < cloud.width; ++c) {
       const char* p = row + static_cast<std::size_t>(c) * cloud.point_step;
+      const std::size_t before = points.size();
       detail::append_if_finite(points, detail::load_scalar(p + axes[0].offset, axes[0].type, swap),
                                detail::load_scalar(p + axes[1].offset, axes[1].type, swap),
                                detail::load_scalar(p + axes[2].offset, axes[2].type, swap), dropped);
+      if (time_axis.found && points.size() > before) {
+        const double t = detail::load_scalar(p + time_axis.offset, time_axis.type, swap);
+        if (!std::isfinite(t)) throw InputError(source, position, "a point's time is not a finite number");
+        raw_times.push_back(t);
+      }
     }
   }
+  if (time_axis.found) *times_s = point_times_to_seconds(raw_times);
   if (stats != nullptr) {
     stats->points_read += n;
     stats->non_finite_dropped += dropped;
   }
+}
+
+std::optional<std::string> bag_imu_topic(const fs::path& path, const std::string& topic) {
+  const BagInfo info = read_bag_info(path);
+  std::vector<std::string> imu;
+  for (const auto& t : info.topics) {
+    if (t.type == "sensor_msgs/Imu") imu.push_back(t.name);
+  }
+  if (!topic.empty()) {
+    if (std::find(imu.begin(), imu.end(), topic) == imu.end()) {
+      throw InputError(path.string(), "", "topic " + topic + " is not a sensor_msgs/Imu topic of the bag (see hmap bag-info)");
+    }
+    return topic;
+  }
+  if (imu.empty()) return std::nullopt;
+  if (imu.size() > 1) {
+    std::string names;
+    for (const auto& n : imu) names += " " + n;
+    throw InputError(path.string(), "", "several sensor_msgs/Imu topics (" + names.substr(1) + "): choose one with --imu-topic");
+  }
+  return imu.front();
+}
+
+ImuSamples read_bag_imu(const fs::path& path, const std::string& topic) {
+  return guarded(path, [&] {
+    BagInfo checked;
+    check_bag_records(path, checked);
+    const access::BagFile bag(path.string());
+    ImuSamples out;
+    for (const access::RawImu& r : bag.read_imu(topic)) {
+      const std::string where = topic + " at stamp " + stamp_text(r.stamp);
+      ImuSample s;
+      s.t = r.stamp;
+      s.gyro = Eigen::Vector3d(r.gyro[0], r.gyro[1], r.gyro[2]);
+      s.accel = Eigen::Vector3d(r.accel[0], r.accel[1], r.accel[2]);
+      if (!std::isfinite(s.t) || !s.gyro.allFinite() || !s.accel.allFinite()) {
+        throw InputError(path.string(), where, "an IMU value is not a finite number");
+      }
+      if (r.orientation_covariance0 != -1.0) {
+        const Eigen::Quaterniond q(r.orientation[3], r.orientation[0], r.orientation[1], r.orientation[2]);
+        if (q.coeffs().allFinite() && q.norm() > 1e-6) s.orientation = q.normalized();
+      }
+      if (!out.empty() && !(s.t > out.back().t)) {
+        throw InputError(path.string(), where, "stamp is not after the previous IMU message's");
+      }
+      out.push_back(s);
+    }
+    if (out.empty()) throw InputError(path.string(), "", "IMU topic " + topic + " has no messages");
+    return out;
+  });
 }
 
 struct BagCloudReader::Impl {
@@ -469,7 +541,7 @@ const std::vector<BagCloudFrame>& BagCloudReader::frames() const { return impl_-
 
 const std::string& BagCloudReader::pose_source() const { return impl_->pose_source; }
 
-PointCloud BagCloudReader::read(std::size_t index, CloudReadStats* stats) const {
+PointCloud BagCloudReader::read(std::size_t index, CloudReadStats* stats, std::vector<float>* times_s) const {
   const BagCloudFrame& frame = impl_->frames.at(index);
   return guarded(impl_->path, [&] {
     const access::RawCloud msg = impl_->bag->read_cloud(index);
@@ -483,7 +555,7 @@ PointCloud BagCloudReader::read(std::size_t index, CloudReadStats* stats) const 
     data.data = std::span<const std::uint8_t>(msg.data.data(), msg.data.size());
     PointCloud points;
     decode_pointcloud2(data, points, stats, impl_->path.string(),
-                       impl_->options.cloud_topic + " at stamp " + stamp_text(frame.stamp));
+                       impl_->options.cloud_topic + " at stamp " + stamp_text(frame.stamp), times_s);
     return points;
   });
 }

@@ -7,10 +7,12 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
 
+#include "hmap/core/imu.hpp"
 #include "hmap/core/types.hpp"
 #include "hmap/io/cloud_stats.hpp"
 
@@ -61,8 +63,21 @@ struct PointCloud2Data {
 /// marks invalid pixels of organized clouds) are dropped and counted. Throws InputError(source,
 /// position, ...) when x, y or z is missing, a field lies outside point_step, row_step < width ·
 /// point_step, or the data holds fewer than height · row_step bytes.
+/// `times_s` given: filled with each kept point's time [s] from the cloud's stamp when the cloud
+/// has a field t, time or timestamp (units as point_times_to_seconds detects them), left empty when
+/// it has none; a non-finite time is refused.
 void decode_pointcloud2(const PointCloud2Data& cloud, PointCloud& points, CloudReadStats* stats,
-                        const std::string& source, const std::string& position);
+                        const std::string& source, const std::string& position, std::vector<float>* times_s = nullptr);
+
+/// The sensor_msgs/Imu topic of a bag: `topic` when given, else the bag's only Imu topic; nullopt
+/// when it has none. Throws InputError when it has several and none is named, or the named one is
+/// not sensor_msgs/Imu.
+[[nodiscard]] std::optional<std::string> bag_imu_topic(const std::filesystem::path& path, const std::string& topic);
+
+/// Every message of a sensor_msgs/Imu topic as samples (orientation kept unless its covariance[0]
+/// is −1, REP 145's "no orientation"). Throws InputError naming the bag and the message for a
+/// value that is not finite or a stamp not after the previous one.
+[[nodiscard]] ImuSamples read_bag_imu(const std::filesystem::path& path, const std::string& topic);
 
 struct BagCloudOptions {
   std::string cloud_topic;   ///< sensor_msgs/PointCloud2 topic (required)
@@ -99,7 +114,8 @@ class BagCloudReader {
 
   [[nodiscard]] const std::vector<BagCloudFrame>& frames() const;
   /// The points of cloud `index` in its own frame (not thread-safe: the bag is one file handle).
-  [[nodiscard]] PointCloud read(std::size_t index, CloudReadStats* stats = nullptr) const;
+  [[nodiscard]] PointCloud read(std::size_t index, CloudReadStats* stats = nullptr,
+                                std::vector<float>* times_s = nullptr) const;
   /// Where the poses came from, for messages ("/tf: map -> os_sensor" or "odometry /odom").
   [[nodiscard]] const std::string& pose_source() const;
 

@@ -6,6 +6,7 @@
 #include <nav_msgs/Odometry.h>
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
+#include <sensor_msgs/Imu.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <tf2_msgs/TFMessage.h>
 
@@ -178,6 +179,30 @@ std::vector<RawTransform> BagFile::read_tf() const {
                                    t.transform.translation.y, t.transform.translation.z, t.transform.rotation));
       out.back().is_static = is_static;
     }
+  }
+  return out;
+}
+
+std::vector<RawImu> BagFile::read_imu(const std::string& topic) const {
+  std::vector<RawImu> out;
+  rosbag::View view(impl_->bag, rosbag::TopicQuery(topic));
+  for (const rosbag::MessageInstance& m : view) {
+    const auto msg = m.instantiate<sensor_msgs::Imu>();
+    if (!msg) throw std::runtime_error("IMU topic " + topic + " holds " + m.getDataType() + ", not sensor_msgs/Imu");
+    RawImu r;
+    r.stamp = msg->header.stamp.toSec();
+    r.orientation[0] = msg->orientation.x;
+    r.orientation[1] = msg->orientation.y;
+    r.orientation[2] = msg->orientation.z;
+    r.orientation[3] = msg->orientation.w;
+    r.orientation_covariance0 = msg->orientation_covariance[0];
+    r.gyro[0] = msg->angular_velocity.x;
+    r.gyro[1] = msg->angular_velocity.y;
+    r.gyro[2] = msg->angular_velocity.z;
+    r.accel[0] = msg->linear_acceleration.x;
+    r.accel[1] = msg->linear_acceleration.y;
+    r.accel[2] = msg->linear_acceleration.z;
+    out.push_back(r);
   }
   return out;
 }

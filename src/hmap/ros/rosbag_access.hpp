@@ -52,6 +52,15 @@ struct RawCloud {
   std::vector<std::uint8_t> data;
 };
 
+/// One sensor_msgs/Imu message.
+struct RawImu {
+  double stamp = 0.0;
+  double orientation[4] = {0, 0, 0, 1};  ///< x y z w
+  double orientation_covariance0 = 0.0;  ///< −1: no orientation (REP 145)
+  double gyro[3] = {0, 0, 0};
+  double accel[3] = {0, 0, 0};
+};
+
 struct CloudHeader {
   double stamp = 0.0;
   std::string frame_id;
@@ -73,6 +82,8 @@ class BagFile {
   [[nodiscard]] RawCloud read_cloud(std::size_t k) const;
   /// Every transform of /tf and /tf_static (tf2_msgs/TFMessage or tf/tfMessage).
   [[nodiscard]] std::vector<RawTransform> read_tf() const;
+  /// Every message of a sensor_msgs/Imu topic.
+  [[nodiscard]] std::vector<RawImu> read_imu(const std::string& topic) const;
   /// The poses of an Odometry, PoseStamped or TransformStamped topic (child empty for PoseStamped).
   [[nodiscard]] std::vector<RawTransform> read_poses(const std::string& topic) const;
 

@@ -116,6 +116,28 @@ SimulatedScan SpinningLidar::scan(const Scene& scene, const Pose& T_world_sensor
   return out;
 }
 
+SimulatedScan SpinningLidar::sweep(const Scene& scene, const std::function<Pose(double)>& T_world_sensor_at,
+                                  double t0) {
+  check(params_.sweep_period >= 0.0 && std::isfinite(params_.sweep_period),
+        "SpinningLidar: sweep_period must be finite and not negative");
+  SimulatedScan out;
+  out.points_sensor.reserve(directions_sensor_.size());
+  const double sigma = params_.range_sigma;
+  const std::size_t rings = params_.elevations_deg.size();
+  const std::size_t columns = directions_sensor_.size() / rings;
+  for (std::size_t c = 0; c < columns; ++c) {
+    const double tau = static_cast<double>(c) / static_cast<double>(columns) * params_.sweep_period;
+    const Pose T_world_sensor = T_world_sensor_at(t0 + tau);
+    RayCaster caster{scene, T_world_sensor, params_.min_range, params_.max_range, params_.dropout_probability, rng_, out};
+    for (std::size_t r = 0; r < rings; ++r) {
+      caster.cast(directions_sensor_[c * rings + r], t0 + tau, static_cast<std::uint16_t>(r),
+                  [sigma](double) { return sigma; });
+    }
+    out.time.resize(out.points_sensor.size(), static_cast<float>(tau));
+  }
+  return out;
+}
+
 // ---------------------------------------------------------------------------------------------
 // Depth camera
 

@@ -12,6 +12,7 @@
 // A return is kept when its measured range (depth for the camera) lies in [min_range, max_range].
 
 #include <cstdint>
+#include <functional>
 #include <random>
 #include <vector>
 
@@ -26,6 +27,7 @@ struct SimulatedScan {
   std::vector<std::uint16_t> channel;     ///< ring (lidars), image row (camera), sweep step (line scanner)
   std::vector<std::uint32_t> primitive;   ///< the solid hit
   std::vector<SurfaceKind> kind;          ///< what that solid stands for
+  std::vector<float> time;                ///< [s] per point from the sweep's start (SpinningLidar::sweep only)
   std::size_t rays = 0;                   ///< rays cast
   std::size_t no_return = 0;              ///< rays that hit nothing within max_range
   std::size_t out_of_range = 0;           ///< returns whose measured range left [min_range, max_range]
@@ -42,6 +44,7 @@ struct SpinningLidarParams {
   double range_sigma = 0.03;            ///< [m] σ of the Gaussian range noise
   double dropout_probability = 0.005;   ///< [-] chance that a return is lost
   std::uint64_t seed = 1;               ///< noise seed
+  double sweep_period = 0.1;            ///< [s] one revolution (sweep(); 10 Hz)
 
   /// Velodyne VLP-16: 16 rings −15°..+15° every 2°, 0.2° azimuth (10 Hz), 0.5–100 m, σ 3 cm, 0.5 % dropouts.
   [[nodiscard]] static SpinningLidarParams vlp16();
@@ -57,6 +60,11 @@ class SpinningLidar {
   /// One full revolution at time `t_seconds`, the sensor at T_world_sensor. Points come column by
   /// column (azimuth from 0° counter-clockwise), rings in the order of elevations_deg.
   [[nodiscard]] SimulatedScan scan(const Scene& scene, const Pose& T_world_sensor, double t_seconds);
+  /// One revolution while the sensor moves (what a real spinning lidar gives): column c fires at
+  /// t0 + c / columns · sweep_period with the sensor at T_world_sensor_at(that time); its points are
+  /// in the sensor frame of that moment and carry their time from t0 in `time`.
+  [[nodiscard]] SimulatedScan sweep(const Scene& scene, const std::function<Pose(double)>& T_world_sensor_at,
+                                    double t0);
   [[nodiscard]] const SpinningLidarParams& params() const { return params_; }
 
  private:

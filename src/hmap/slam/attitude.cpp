@@ -139,7 +139,8 @@ std::optional<Eigen::Vector3d> floor_normal(const ScanHVoxels& scan_sensor, cons
 AttitudeRefiner::AttitudeRefiner(const Params& params) : params_(params) {}
 
 AttitudeFit AttitudeRefiner::refine(const ScanHVoxels& scan_level, const HMap& map, double x, double y, double yaw,
-                                    const Attitude& guess, const std::optional<Eigen::Vector3d>& floor_level) {
+                                    const Attitude& guess, const std::optional<Eigen::Vector3d>& floor_level,
+                                    const std::optional<Eigen::Vector3d>& gravity_level) {
   AttitudeFit fit;
   fit.ran = true;
   fit.attitude = guess;
@@ -217,16 +218,17 @@ AttitudeFit AttitudeRefiner::refine(const ScanHVoxels& scan_level, const HMap& m
     }
     fit.information = H.diagonal() / static_cast<double>(pairs);
     fit.observable = {true, fit.information(1) >= lever_sq, fit.information(2) >= lever_sq};
-    if (floor_level && sp.level_prior > 0.0) {
-      // The floor normal v = R·n should be vertical: residuals v_x, v_y; for a rotation δw on the
-      // left, δv = δw × v, so ∂v_x/∂w_y = v_z and ∂v_y/∂w_x = −v_z.
-      const Eigen::Vector3d v = R * *floor_level;
-      const double lambda = sp.level_prior * 0.5 * (H(1, 1) + H(2, 2));
+    // A direction n that should be vertical after the correction: v = R·n, residuals v_x, v_y; for
+    // a rotation δw on the left, δv = δw × v, so ∂v_x/∂w_y = v_z and ∂v_y/∂w_x = −v_z.
+    const auto pull_vertical = [&](const Eigen::Vector3d& n, double lambda) {
+      const Eigen::Vector3d v = R * n;
       H(2, 2) += lambda * v.z() * v.z();
       g(2) += lambda * v.z() * v.x();
       H(1, 1) += lambda * v.z() * v.z();
       g(1) += lambda * (-v.z()) * v.y();
-    }
+    };
+    if (floor_level && sp.level_prior > 0.0) pull_vertical(*floor_level, sp.level_prior * 0.5 * (H(1, 1) + H(2, 2)));
+    if (gravity_level) pull_vertical(*gravity_level, sp.imu_tilt_weight * 0.5 * (H(1, 1) + H(2, 2)));
     // Solve for the observable axes only; the others keep their guess.
     Eigen::Vector3d step = Eigen::Vector3d::Zero();
     std::array<int, 3> idx{};

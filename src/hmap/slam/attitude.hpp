@@ -67,9 +67,14 @@ class AttitudeRefiner {
   /// toward the tilt that makes it vertical, with slam.level_prior times the tilt information of
   /// the map pairs. Without it nothing anchors the tilt to gravity: the map agrees with its own
   /// drift (a 1.5° pitch error after a ramp raised a flat street by 4 m over 250 m).
+  /// `gravity_level` (an IMU's up direction in that frame): the same pull toward making it
+  /// vertical, with slam.imu_tilt_weight times the pairs' tilt information (relative, not from the
+  /// pairs' count: their errors are not independent, the rings on a far wall all tilt together).
+  /// Where the pairs are too few for an axis the guess (the IMU's tilt) is kept.
   [[nodiscard]] AttitudeFit refine(const ScanHVoxels& scan_level, const HMap& map, double x, double y, double yaw,
                                    const Attitude& guess,
-                                   const std::optional<Eigen::Vector3d>& floor_level = std::nullopt);
+                                   const std::optional<Eigen::Vector3d>& floor_level = std::nullopt,
+                                   const std::optional<Eigen::Vector3d>& gravity_level = std::nullopt);
 
  private:
   struct Sample {

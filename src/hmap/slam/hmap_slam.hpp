@@ -7,6 +7,8 @@
 
 #include "hmap/maps/mapper.hpp"
 #include "hmap/slam/attitude.hpp"
+#include "hmap/slam/deskew.hpp"
+#include "hmap/slam/imu.hpp"
 #include "hmap/slam/scan_matcher.hpp"
 
 namespace hmap::slam {
@@ -22,6 +24,19 @@ namespace hmap::slam {
 /// The inverse in SE(2).
 [[nodiscard]] PlanarPose inverse(const PlanarPose& a);
 
+/// One scan and what else is known about it.
+struct ScanInput {
+  std::span<const Point3f> points_sensor;
+  /// [s] per point, from the scan's reference time (the time its pose is for); empty: no time.
+  std::span<const float> times;
+  /// [s] the scan's stamp (for the velocity of the deskewing); nullopt: the sweep's time span is
+  /// taken as the scan period (a spinning lidar sweeps once per scan).
+  std::optional<double> stamp;
+  std::optional<Attitude> attitude;  ///< z, roll, pitch given (reference poses): taken as they are
+  std::optional<PlanarPose> guess;   ///< x, y, yaw guess (odometry); nullopt: constant velocity
+  std::optional<ImuPrior> imu;       ///< the IMU's gravity and rotation since the previous scan
+};
+
 /// What one SLAM step did.
 struct SlamStep {
   Pose T_map_sensor = Pose::Identity();  ///< the pose the scan was merged at
@@ -35,6 +50,9 @@ struct SlamStep {
   /// for a skipped match; z, roll, pitch false when the attitude was given.
   std::array<bool, 6> observable{false, false, false, false, false, false};
   ScanStats mapping;
+  bool deskewed = false;       ///< the points were moved to the reference time
+  Twist sweep_velocity;        ///< the velocity they were moved with
+  bool imu_used = false;       ///< an IMU prior shaped the tilt and the rotation guess
 };
 
 /// The scan-to-map SLAM loop. Not thread-safe; one instance per sequence.
@@ -56,9 +74,22 @@ class HmapSlam {
   SlamStep process(std::span<const Point3f> points_sensor, const std::optional<Attitude>& attitude,
                    const std::optional<PlanarPose>& guess = std::nullopt);
 
+  /// The same with what else is known. With `imu` (and no attitude given): the tilt guess is the
+  /// IMU's gravity (not the floor's), the yaw guess turns by the gyro's rotation since the last
+  /// scan, and the attitude fit is pulled toward the IMU's gravity (slam.imu_tilt_weight times the
+  /// map pairs' tilt information) instead of toward a level floor; where the scan
+  /// has too few horizontal surfaces for an axis, the IMU's value stands. With `times` (and
+  /// slam.deskew): the points are first moved to the reference time by the constant body velocity
+  /// of the last two estimates (its rotation from the IMU's rate when there is one).
+  SlamStep process(const ScanInput& input);
+
   /// The height the first scan is put at when its attitude is estimated (default 0: the map frame
   /// starts at the sensor). Call before the first process().
   void start_at_height(double z) { last_attitude_.z = z; }
+
+  /// The body velocity of the last two estimates (their stamps' difference, or the last sweep's
+  /// span); zero before two scans or without stamps and times. For ImuAttitudeFilter::set_body_velocity.
+  [[nodiscard]] Twist velocity() const;
 
   /// The constant-velocity prediction for the next scan: last ⊕ (previous⁻¹ ⊕ last).
   [[nodiscard]] PlanarPose predict() const;
@@ -67,6 +98,8 @@ class HmapSlam {
   [[nodiscard]] std::size_t scans() const { return scans_; }
 
  private:
+  [[nodiscard]] Twist velocity_between(double dt) const;
+
   Params params_;
   Mapper mapper_;
   ScanMatcher matcher_;
@@ -77,6 +110,14 @@ class HmapSlam {
   ScanHVoxels scan_level_;
   PlanarPose last_;
   PlanarPose previous_;
+  Pose T_last_ = Pose::Identity();      // the last two full estimates, for the sweep's velocity
+  Pose T_previous_ = Pose::Identity();
+  std::optional<double> stamp_last_;
+  std::optional<double> stamp_previous_;
+  double last_sweep_ = 0.0;             // [s] time span of the last scan's points
+  PointCloud deskewed_;
+  PointCloud first_points_;          // the first scan, kept until the second gives it a velocity
+  std::vector<float> first_times_;
   std::size_t scans_ = 0;
 };
 
