@@ -19,4 +19,7 @@ struct PgmExportParams {
 /// .pgm or .yaml, or have no extension. Throws hmap::Error for an empty grid.
 void write_pgm_map(const std::filesystem::path& stem, const OccupancyGrid& grid, const PgmExportParams& params = {});
 
+/// `stem` without a trailing .pgm or .yaml: the name write_pgm_map gives its two files.
+[[nodiscard]] std::filesystem::path pgm_stem(const std::filesystem::path& stem);
+
 }  // namespace hmap
