@@ -4,6 +4,8 @@
 #include <cstdio>
 
 #include "cli_common.hpp"
+#include "hmap/core/format.hpp"
+#include "hmap/io/atomic_file.hpp"
 #include "hmap/core/error.hpp"
 #include "hmap/io/hmap_file.hpp"
 #include "hmap/ground/ground_patches.hpp"
@@ -83,6 +85,18 @@ void run_export(const ExportOptions& o) {
   if (o.ply.empty() && o.bt.empty() && o.pgm.empty()) {
     throw Error("nothing to export: give --ply OUT.ply, --bt OUT.bt and/or --pgm OUT");
   }
+  if (o.z_step != 0.0 && !(o.z_step >= 1e-3 && o.z_step <= 100.0)) {
+    throw Error(format("--z-step = %g m is out of its range [0.001, 100] m", o.z_step));
+  }
+  if (o.ground_iterations != 0 && !(o.ground_iterations > 0 && o.ground_iterations <= 100000)) {
+    throw Error("--ground-iterations = " + std::to_string(o.ground_iterations) + " is out of its range [1, 100000]");
+  }
+  // Every output checked before the map is read and the work done.
+  if (!o.ply.empty()) check_output_file(o.ply);
+  if (!o.bt.empty()) check_output_file(o.bt);
+  if (!o.pgm.empty()) {
+    for (const char* ext : {".pgm", ".yaml"}) check_output_file(pgm_stem(o.pgm).concat(ext));
+  }
   MapFile file = load_map_file(o.map);
   const HMap& map = file.map;
   if (!o.pgm.empty()) {
@@ -121,13 +135,13 @@ void run_export(const ExportOptions& o) {
   }
   if (o.ply.empty() && o.bt.empty()) return;
   if (!o.bt.empty()) {
-    const std::size_t leaves = write_octomap_bt(o.bt, map);
+    const std::size_t leaves = write_octomap_bt(o.bt, map, memory_budget());
     std::printf("wrote %zu occupied OctoMap leaves (resolution %.3f m) to %s\n", leaves, map.cell_size(), o.bt.c_str());
     if (o.ply.empty()) return;
   }
   if (o.points) {
     const double step = o.z_step > 0.0 ? o.z_step : map.cell_size();
-    const PointCloud pts = recover_points(map, step);
+    const PointCloud pts = recover_points(map, step, memory_budget());
     write_points_ply(o.ply, pts);
     std::printf("wrote %zu recovered points (every %.3f m up each HVoxel) to %s\n", pts.size(), step, o.ply.c_str());
   } else {

@@ -39,6 +39,7 @@ struct PvoxOptions {
 };
 
 void run_pvox(const PvoxOptions& o) {
+  prepare_output_folder(o.out);  // before the work
   const ScanSource src = ScanSource::open(o.sensors, o.kitti, o.files, o.poses, o.max_scans, false);
   if (!src.description.empty()) std::fprintf(stderr, "input: %s\n", src.description.c_str());
   std::optional<PoseList> odometry;
@@ -63,12 +64,12 @@ void run_pvox(const PvoxOptions& o) {
   params.insert.min_range = o.min_range;
   params.insert.max_range = o.max_range;
   params.insert.free_space = o.free_space ? pvox::FreeSpace::kRays : pvox::FreeSpace::kOff;
+  params.budget = memory_budget();
   pvox::PvoxMapper mapper(params);
 
   // Commands: the odometry's relative motions, else those of the given poses, else standing still.
   const PoseList* command_source = odometry ? &*odometry : src.T_map_scan ? &*src.T_map_scan : nullptr;
   const std::filesystem::path dir = o.out;
-  std::filesystem::create_directories(dir);
   PointCloud raw_points;
   std::vector<double> ms;
   std::vector<pvox::RegistrationResult> results;
@@ -84,7 +85,7 @@ void run_pvox(const PvoxOptions& o) {
     std::optional<Eigen::Vector2d> measured;
     if (use_poses) measured = (*src.T_map_scan)[k].translation().head<2>();
     const auto t0 = Clock::now();
-    results.push_back(mapper.add_scan(cloud, command, measured));
+    results.push_back(for_scan(src, k, [&] { return mapper.add_scan(cloud, command, measured); }));
     ms.push_back(ms_since(t0));
     points += cloud.size();
     if (o.raw_csv) {
@@ -179,7 +180,7 @@ void add_pvox_command(CLI::App& app) {
   cmd->add_option("--measurement-variance", o->measurement_variance_mm2, "[mm²] of a measured position")->capture_default_str();
   cmd->add_flag("--free-space", o->free_space, "Lower the probability of voxels that rays cross (3D DDA)");
   cmd->add_flag("--raw-csv", o->raw_csv, "Also write the registered points as points.csv (to compare sizes)");
-  cmd->add_option("--max-scans", o->max_scans, "Use at most this many scans (0: all)");
+  cmd->add_option("--max-scans", o->max_scans, "Use at most this many scans (0: all)")->check(kCount);
   cmd->add_option("--out", o->out, "Output folder")->required();
   o->sensors.add_to(*cmd);
   cmd->callback([o] { run_pvox(*o); });

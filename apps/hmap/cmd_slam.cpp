@@ -6,6 +6,7 @@
 
 #include "cli_common.hpp"
 #include "hmap/core/error.hpp"
+#include "hmap/core/format.hpp"
 #include "hmap/core/sensor_profile.hpp"
 #include "hmap/io/atomic_file.hpp"
 #include "hmap/io/hmap_file.hpp"
@@ -47,6 +48,7 @@ PoseList read_scan_poses(const std::string& path, std::size_t scans, const std::
 
 void run_slam(const SlamOptions& o) {
   Params params = o.params.resolve();
+  prepare_output_folder(o.out);  // before the work
   const ScanSource src = ScanSource::open(o.sensors, o.kitti, o.files, "", o.scans, /*poses_required=*/false);
   if (!src.description.empty()) std::fprintf(stderr, "input: %s\n", src.description.c_str());
   // Defaults the first scan can tell (the ring spacing), for parameters left at the preset's value.
@@ -57,9 +59,7 @@ void run_slam(const SlamOptions& o) {
     first = src.read(0, read_stats);
     const SensorProfile sensor = profile_scan(*first);
     for (const ChosenDefault& c : adapt_to_sensor(params, hmap::preset(o.params.preset), sensor)) {
-      char line[256];
-      std::snprintf(line, sizeof line, " %s = %g (%s).", c.name.c_str(), c.value, c.reason.c_str());
-      chosen_text += line;
+      chosen_text += format(" %s = %g (%s).", c.name.c_str(), c.value, c.reason.c_str());
     }
     validate(params);
   }
@@ -99,7 +99,6 @@ void run_slam(const SlamOptions& o) {
   }
   if (!o.gt.empty()) truth = read_scan_poses(o.gt, n, T_cam_velo);
 
-  std::filesystem::create_directories(o.out);
   slam::HmapSlam slam(params);
   // The first scan defines the map frame; with a reference it starts at the reference's first
   // pose (x, y, yaw below; its height here), so that ATE needs no alignment.
@@ -130,7 +129,7 @@ void run_slam(const SlamOptions& o) {
       // The first scan defines the map frame: put it where the reference trajectory starts.
       guess = slam::planar_of(odometry ? odometry->front() : truth->front());
     }
-    const slam::SlamStep step = slam.process(cloud, att, guess);
+    const slam::SlamStep step = for_scan(src, k, [&] { return slam.process(cloud, att, guess); });
     const double ms = ms_since(t0);
     ms_total += ms;
     {
@@ -138,8 +137,7 @@ void run_slam(const SlamOptions& o) {
       const slam::PlanarPose xi = slam::planar_of(step.T_map_sensor);
       const slam::Attitude at = slam::attitude_of(step.T_map_sensor);
       const auto& af = step.attitude;
-      char line[768];
-      std::snprintf(line, sizeof line,
+      log += format(
                     "%zu,%d,%d,%d,%.6g,%.6g,%.6g,%zu,%d,%d,%d,%.6g,%.6g,%.6g,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,"
                     "%d,%zu,%.4f,%d,%d,%d,%d,%d,%d,%d,%.3f\n",
                     k, step.matched ? 1 : 0, m.converged ? 1 : 0, m.iterations, m.initial_cost, m.final_cost, m.score,
@@ -148,7 +146,6 @@ void run_slam(const SlamOptions& o) {
                     at.z, at.roll, at.pitch, af.ran ? 1 : 0, af.surfaces, af.rms, step.observable[0] ? 1 : 0,
                     step.observable[1] ? 1 : 0, step.observable[2] ? 1 : 0, step.observable[3] ? 1 : 0,
                     step.observable[4] ? 1 : 0, step.observable[5] ? 1 : 0, step.planar_passes, ms);
-      log += line;
     }
     estimate.push_back(step.T_map_sensor);
     if (step.matched) {
@@ -204,7 +201,7 @@ void add_slam_command(CLI::App& app) {
                   "Odometry poses: the initial guess moves by their increments ('source': the poses of the RGB-D "
                   "folder or bag)");
   cmd->add_option("--gt", opts->gt, "True poses, drawn in trajectory.png");
-  cmd->add_option("--scans", opts->scans, "Use only the first N scans");
+  cmd->add_option("--scans", opts->scans, "Use only the first N scans")->check(kCount);
   cmd->add_option("--out,-o", opts->out, "Output folder")->required();
   opts->params.add_to(*cmd);
   opts->sensors.add_to(*cmd);
