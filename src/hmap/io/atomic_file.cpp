@@ -176,6 +176,33 @@ void write_file_atomic(const std::filesystem::path& path, const std::function<vo
   sync_directory(path.parent_path());
 }
 
+std::filesystem::path make_staging_folder(const std::filesystem::path& target) {
+  const std::filesystem::path name = target.filename().empty() ? target.parent_path() : target;
+  for (int attempt = 0; attempt < 8; ++attempt) {
+    const std::filesystem::path staging = temporary_path_for(name);
+    if (::mkdir(staging.c_str(), 0777) == 0) return staging;
+    if (errno != EEXIST) fail(name, "cannot create the staging folder " + staging.string(), errno);
+  }
+  fail(name, "cannot create a staging folder", EEXIST);
+}
+
+void replace_folder_atomic(const std::filesystem::path& staging, const std::filesystem::path& target_in) {
+  const std::filesystem::path target = target_in.filename().empty() ? target_in.parent_path() : target_in;
+  struct stat st {};
+  const bool exists = ::lstat(target.c_str(), &st) == 0;
+  if (exists && !S_ISDIR(st.st_mode)) throw Error(target.string() + ": " + not_regular(st.st_mode));
+  if (!exists) {
+    if (::rename(staging.c_str(), target.c_str()) != 0) fail(target, "cannot rename the new folder into place", errno);
+  } else {
+    if (::renameat2(AT_FDCWD, staging.c_str(), AT_FDCWD, target.c_str(), RENAME_EXCHANGE) != 0) {
+      fail(target, "cannot exchange the new folder with the old one", errno);
+    }
+    std::error_code ignored;  // the old set, now at `staging`: a failure here leaves it hidden, not wrong
+    std::filesystem::remove_all(staging, ignored);
+  }
+  sync_directory(target.parent_path());
+}
+
 void write_file_atomic(const std::filesystem::path& path, std::string_view bytes) {
   write_file_atomic(path, [bytes](std::ostream& out) {
     out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));

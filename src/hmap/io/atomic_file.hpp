@@ -23,6 +23,16 @@ void check_output_file(const std::filesystem::path& path);
 /// message names `for_path` (the output asked for) when given.
 void check_output_folder(const std::filesystem::path& dir, const std::filesystem::path& for_path = {});
 
+/// A new, empty hidden folder beside `target` (".NAME.tmp.PID.RANDOM") to write a set of files
+/// into; replace_folder_atomic then puts the whole set in place of `target` at once.
+[[nodiscard]] std::filesystem::path make_staging_folder(const std::filesystem::path& target);
+
+/// Puts the folder `staging` in place of the folder `target` in one step: rename() when `target`
+/// does not exist, else renameat2(RENAME_EXCHANGE), after which the old folder (now at
+/// `staging`) is removed. A kill at any moment leaves at `target` the whole old set or the whole
+/// new one, never a new file beside an old one (a killed run leaves its staging folder behind).
+void replace_folder_atomic(const std::filesystem::path& staging, const std::filesystem::path& target);
+
 /// Atomically replaces `path` with `bytes`.
 void write_file_atomic(const std::filesystem::path& path, std::string_view bytes);
 
