@@ -28,7 +28,6 @@ void run_map(const MapOptions& o) {
   const Params params = o.params.resolve();
   check_output_file(o.out);  // before the work: a missing folder was found after mapping every scan
   const ScanSource src = ScanSource::open(o.sensors, o.kitti, o.files, o.poses, o.scans, /*poses_required=*/true);
-  if (!src.description.empty()) std::fprintf(stderr, "input: %s\n", src.description.c_str());
   // The hybrid map of section IV by default: the HMAP, the ground patches of Alg. 4 and the 2D
   // grid of eq. (3)-(4), all saved; --hvoxels-only keeps section III alone (faster).
   HybridMapper hybrid(params);
@@ -77,6 +76,8 @@ void run_map(const MapOptions& o) {
   }
   const MapStats st = map.stats();
   const auto n = static_cast<double>(src.scans.size());
+  // Told with the result, not before the work: an error stays the one line of its run.
+  if (!src.description.empty()) std::printf("input: %s\n", src.description.c_str());
   std::printf(
       "Mapped %zu scans: %s points read, %s kept, %s dropped (%s not finite, %s out of the %.2f-%.2f m "
       "range). Integration took %.1f ms per scan (%s points/s). The map has %zu cells and %zu HVoxels "

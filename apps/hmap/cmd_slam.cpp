@@ -50,7 +50,6 @@ void run_slam(const SlamOptions& o) {
   Params params = o.params.resolve();
   prepare_output_folder(o.out);  // before the work
   const ScanSource src = ScanSource::open(o.sensors, o.kitti, o.files, "", o.scans, /*poses_required=*/false);
-  if (!src.description.empty()) std::fprintf(stderr, "input: %s\n", src.description.c_str());
   // Defaults the first scan can tell (the ring spacing), for parameters left at the preset's value.
   CloudReadStats read_stats;
   std::optional<PointCloud> first;
@@ -175,6 +174,8 @@ void run_slam(const SlamOptions& o) {
   const double matched = n > 1 ? static_cast<double>(n - 1) : 1.0;
   const double scored = n > 1 + skipped ? static_cast<double>(n - 1 - skipped) : 1.0;  // mean M_H over these
   const MapStats st = slam.map().stats();
+  // Told with the result, not before the work: an error stays the one line of its run.
+  if (!src.description.empty()) std::printf("input: %s\n", src.description.c_str());
   std::printf(
       "SLAM on %zu scans: %.1f ms per scan (%.1f scans/s, matching and map update), %.1f Gauss-Newton "
       "iterations per scan, %zu of %zu matches converged, %zu degenerate, %zu needed the coarse search, "

@@ -58,6 +58,12 @@ bool all_numbers(const std::vector<std::string_view>& fields) {
   return std::all_of(fields.begin(), fields.end(), [&](std::string_view f) { return detail::parse_double(f, value); });
 }
 
+/// A value that is not a number, said helpfully: "1,5" is a decimal comma.
+std::string not_a_number(std::string_view field) {
+  const bool decimal_comma = field.find(',') != std::string_view::npos;
+  return detail::quoted(field) + " is not a number" + (decimal_comma ? " (a decimal comma? write 1.5, not 1,5)" : "");
+}
+
 /// The columns of x, y, z named in a header; InputError when it does not name all three (the
 /// columns are not guessed).
 std::array<std::size_t, 3> columns_from_header(const std::vector<std::string_view>& fields, const std::string& source,
@@ -68,6 +74,13 @@ std::array<std::size_t, 3> columns_from_header(const std::vector<std::string_vie
     const auto found = std::find_if(fields.begin(), fields.end(),
                                     [&](std::string_view f) { return column_name(f) == kNames[k]; });
     if (found == fields.end()) {
+      // "1,5;2,5;3,5" is no header but numbers with decimal commas: say so.
+      for (const auto f : fields) {
+        std::string dotted(f);
+        std::replace(dotted.begin(), dotted.end(), ',', '.');
+        double value = 0.0;
+        if (dotted != f && detail::parse_double(dotted, value)) throw InputError(source, line_position(line), not_a_number(f));
+      }
       std::string names;
       for (const auto f : fields) {
         if (!names.empty()) names += ' ';  // appended piecewise: `"" + std::string` trips GCC 12's -Wrestrict
@@ -80,12 +93,6 @@ std::array<std::size_t, 3> columns_from_header(const std::vector<std::string_vie
     columns[k] = static_cast<std::size_t>(found - fields.begin());
   }
   return columns;
-}
-
-/// A value that is not a number, said helpfully: "1,5" is a decimal comma.
-std::string not_a_number(std::string_view field) {
-  const bool decimal_comma = field.find(',') != std::string_view::npos;
-  return detail::quoted(field) + " is not a number" + (decimal_comma ? " (a decimal comma? write 1.5, not 1,5)" : "");
 }
 
 }  // namespace
