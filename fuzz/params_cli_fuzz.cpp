@@ -9,6 +9,7 @@
 //
 // Accepted parameters must be valid, hold up in the map (HMap's constructor), and read back
 // exactly from what `hmap params` prints; a refusal is one hmap::Error of one printable line.
+#include <algorithm>
 #include <charconv>
 #include <string>
 #include <string_view>
