@@ -25,6 +25,7 @@ HMAP_FUZZ_DECLARE(hmap_file)
 HMAP_FUZZ_DECLARE(pvox_binary)
 HMAP_FUZZ_DECLARE(pvox_csv)
 HMAP_FUZZ_DECLARE(config)
+HMAP_FUZZ_DECLARE(params_cli)
 #ifdef HMAP_FUZZ_HAVE_ROS
 HMAP_FUZZ_DECLARE(rosbag)
 #endif
@@ -52,6 +53,7 @@ constexpr Target kTargets[] = {
     {"pvox_binary", hmap_fuzz_pvox_binary},
     {"pvox_csv", hmap_fuzz_pvox_csv},
     {"config", hmap_fuzz_config},
+    {"params_cli", hmap_fuzz_params_cli},
 #ifdef HMAP_FUZZ_HAVE_ROS
     {"rosbag", hmap_fuzz_rosbag},
 #endif

@@ -1,5 +1,6 @@
 #include "cli_common.hpp"
 
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -8,6 +9,8 @@
 #include <cstdio>
 
 #include "hmap/core/error.hpp"
+#include "hmap/core/format.hpp"
+#include "hmap/io/atomic_file.hpp"
 #include "hmap/io/cloud_reader.hpp"
 #include "hmap/io/config.hpp"
 #include "hmap/io/gravity.hpp"
@@ -30,14 +33,7 @@ void ParamOptions::add_to(CLI::App& app) {
 }
 
 Params ParamOptions::resolve() const {
-  Params p = hmap::preset(preset);
-  if (!config.empty()) apply_config_file(config, p);
-  for (const auto& o : overrides) apply_override(o, p);
-  if (cell) p.map.cell_size = *cell;
-  if (min_range) p.map.min_range = *min_range;
-  if (max_range) p.map.max_range = *max_range;
-  validate(p);
-  return p;
+  return resolve_params(ParamSources{preset, config, overrides, cell, min_range, max_range});
 }
 
 ScanSource ScanSource::open(const std::string& kitti_dir, const std::vector<std::string>& files,
@@ -140,10 +136,8 @@ void make_gravity_aligned(ScanSource& src, const ScanSourceOptions& o, bool rgbd
       throw Error("no floor plane found in " + std::to_string(frames) + " frames; give the up axis with --up AXIS");
     }
     T_map_world = gravity_rotation(floor.up_world);
-    char buf[160];
-    std::snprintf(buf, sizeof buf, "; up from the floor plane (%.3f, %.3f, %.3f), %zu of %zu points on it", floor.up_world.x(),
+    src.description += format("; up from the floor plane (%.3f, %.3f, %.3f), %zu of %zu points on it", floor.up_world.x(),
                   floor.up_world.y(), floor.up_world.z(), floor.inliers, floor.points);
-    src.description += buf;
   } else {
     T_map_world = gravity_rotation(parse_up_axis(up));
     src.description += "; world up axis " + up;
@@ -233,6 +227,20 @@ void Progress::finish() {
   std::fflush(stderr);
 }
 
+MemoryBudget& memory_budget() {
+  static MemoryBudget budget;
+  return budget;
+}
+
+void prepare_output_folder(const std::filesystem::path& dir) {
+  std::error_code ec;
+  struct stat st {};
+  if (::stat(dir.c_str(), &st) == 0 && !S_ISDIR(st.st_mode)) throw Error(dir.string() + ": the output folder is a file");
+  std::filesystem::create_directories(dir, ec);
+  if (ec) throw Error(dir.string() + ": cannot create the output folder (" + ec.message() + ")");
+  check_output_folder(dir);
+}
+
 std::string human_bytes(double bytes) {
   const char* units[] = {"B", "KiB", "MiB", "GiB", "TiB"};
   int u = 0;
@@ -240,21 +248,13 @@ std::string human_bytes(double bytes) {
     bytes /= 1024.0;
     ++u;
   }
-  char buf[32];
-  std::snprintf(buf, sizeof buf, u == 0 ? "%.0f %s" : "%.1f %s", bytes, units[u]);
-  return buf;
+  return u == 0 ? format("%.0f %s", bytes, units[u]) : format("%.1f %s", bytes, units[u]);
 }
 
 std::string human_count(double n) {
-  char buf[32];
-  if (n >= 1e6) {
-    std::snprintf(buf, sizeof buf, "%.2f M", n / 1e6);
-  } else if (n >= 1e4) {
-    std::snprintf(buf, sizeof buf, "%.1f k", n / 1e3);
-  } else {
-    std::snprintf(buf, sizeof buf, "%.0f", n);
-  }
-  return buf;
+  if (n >= 1e6) return format("%.2f M", n / 1e6);
+  if (n >= 1e4) return format("%.1f k", n / 1e3);
+  return format("%.0f", n);
 }
 
 }  // namespace hmap::cli

@@ -6,10 +6,13 @@
 #include <chrono>
 #include <filesystem>
 #include <memory>
+#include <new>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "hmap/core/budget.hpp"
+#include "hmap/core/error.hpp"
 #include "hmap/core/params.hpp"
 #include "hmap/core/types.hpp"
 #include "hmap/io/cloud_stats.hpp"
@@ -100,6 +103,42 @@ class Progress {
   bool active_;
   std::chrono::steady_clock::time_point last_;
 };
+
+/// CLI11 check of a count option (--scans, --frames, --seed): "-1" is refused by name instead of
+/// wrapping to 2^64 - 1 in a std::size_t.
+inline const CLI::Validator kCount(
+    [](std::string& value) -> std::string {
+      if (!value.empty() && value.find_first_not_of("0123456789") == std::string::npos) return "";
+      return "must be a count (0, 1, 2, ...), got '" + value + "'";
+    },
+    "COUNT");
+
+/// The memory budget of this run (`hmap --max-memory MIB`, default MemoryBudget::kDefaultBytes).
+[[nodiscard]] MemoryBudget& memory_budget();
+
+/// Runs `step` (integrating scan `k` of `src`) and gives any hmap::Error or std::bad_alloc it
+/// throws the scan's name and where its pose came from: "scan pose is too far from the map origin"
+/// and "out of memory" alone do not say which of 3000 scans did it.
+template <typename Step>
+decltype(auto) for_scan(const ScanSource& src, std::size_t k, Step&& step) {
+  const auto where = [&] {
+    return "scan " + std::to_string(k) + " (" + src.scans.at(k).string() + ")" +
+           (src.poses_name.empty() ? std::string() : ", pose from " + src.poses_name);
+  };
+  try {
+    return step();
+  } catch (const InputError&) {
+    throw;  // already names its file
+  } catch (const Error& e) {
+    throw Error(where() + ": " + e.what());
+  } catch (const std::bad_alloc&) {
+    throw Error(where() + ": out of memory (the memory budget is hmap --max-memory MIB)");
+  }
+}
+
+/// Creates the output folder `dir` (and its parents) before the work, and checks that files can
+/// be written in it; hmap::Error naming it otherwise (not the standard library's message).
+void prepare_output_folder(const std::filesystem::path& dir);
 
 [[nodiscard]] std::string human_bytes(double bytes);
 [[nodiscard]] std::string human_count(double n);

@@ -6,6 +6,7 @@
 
 #include "cli_common.hpp"
 #include "hmap/core/error.hpp"
+#include "hmap/core/format.hpp"
 #include "hmap/ros/bag_reader.hpp"
 
 namespace hmap::cli {
@@ -48,9 +49,7 @@ ScanSource open_bag_source(const ScanSourceOptions& sensors, std::size_t max_sca
   ScanSource src;
   src.T_map_scan.emplace();
   for (const auto& f : reader->frames()) {
-    char name[96];
-    std::snprintf(name, sizeof name, "@%.6f", f.stamp);
-    src.scans.emplace_back(sensors.cloud_topic + name);
+    src.scans.emplace_back(sensors.cloud_topic + format("@%.6f", f.stamp));
     src.T_map_scan->push_back(f.T_map_cloud);
     src.stamps.push_back(f.stamp);
   }

@@ -171,7 +171,7 @@ void add_bench_command(CLI::App& app) {
   cmd->add_option("--kitti", opts->kitti, "KITTI sequence folder");
   cmd->add_option("scans", opts->files, "Scan files instead of a KITTI folder");
   cmd->add_option("--poses", opts->poses, "Poses (identity for every scan when absent)");
-  cmd->add_option("--scans", opts->scans, "Use only the first N scans");
+  cmd->add_option("--scans", opts->scans, "Use only the first N scans")->check(kCount);
   cmd->add_flag("--json", opts->json, "One JSON object per line, one per system");
   cmd->add_flag("--hmap-only", opts->skip_octomap, "Skip the OctoMap side");
   cmd->add_option("--repeat", opts->repeat, "Runs of the HMAP side; the median counts")

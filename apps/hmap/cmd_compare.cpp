@@ -16,6 +16,7 @@
 #include "hmap/baseline/octomap_projection.hpp"
 #include "hmap/core/error.hpp"
 #include "hmap/eval/grid_metrics.hpp"
+#include "hmap/core/format.hpp"
 #include "hmap/eval/map_metrics.hpp"
 #include "hmap/io/atomic_file.hpp"
 #include "hmap/io/cloud_reader.hpp"
@@ -95,7 +96,7 @@ void run_compare(const CompareOptions& o) {
   const ScanSource src = ScanSource::open(o.sensors, o.kitti, o.files, o.poses, o.scans, /*poses_required=*/true);
   if (src.scans.empty()) throw Error("no scans to compare on");
   const PoseList& poses = *src.T_map_scan;
-  std::filesystem::create_directories(o.out);
+  prepare_output_folder(o.out);
 
   // The same scans, once read, into the three systems.
   HybridMapper hybrid(params);
@@ -248,14 +249,14 @@ void run_compare(const CompareOptions& o) {
   std::vector<const SystemResult*> systems{&r_hmap, &r_25d};
   if (!o.skip_octomap) systems.push_back(&r_octo);
   for (const SystemResult* r : systems) {
-    char line[512];
+    std::string line;
     if (r->metrics) {
-      std::snprintf(line, sizeof line, "| %s | %.2f | %s | %.3f / %.3f | %.3f / %.3f | %.3f |\n", r->name.c_str(),
+      line = format("| %s | %.2f | %s | %.3f / %.3f | %.3f / %.3f | %.3f |\n", r->name.c_str(),
                     r->ms_per_scan, human_bytes(static_cast<double>(r->memory_bytes)).c_str(),
                     r->metrics->exact.precision, r->metrics->tolerant.precision, r->metrics->exact.recall,
                     r->metrics->tolerant.recall, r->metrics->chamfer.chamfer_m);
     } else {
-      std::snprintf(line, sizeof line, "| %s | %.2f | %s | - | - | - |\n", r->name.c_str(), r->ms_per_scan,
+      line = format("| %s | %.2f | %s | - | - | - |\n", r->name.c_str(), r->ms_per_scan,
                     human_bytes(static_cast<double>(r->memory_bytes)).c_str());
     }
     md << line;
@@ -297,17 +298,15 @@ void run_compare(const CompareOptions& o) {
     if (g_octo) {
       rows.push_back({"OctoMap", "projected", "OctoMap, projected as octomap_server does", "octomap_projected", &*g_octo});
     }
-    char line[512];
     md << "\n## 2D occupancy against the true traversability (robot " << robot_height << " m tall, steps over "
        << 2.0 * params.occupancy.ground_distance << " m block)\n\n";
     md << "| 2D grid | cells compared | accuracy | blocked found | free found | free under overhangs |\n| --- | --- | --- | --- | --- | --- |\n";
     report["grid_2d"] = {{"robot_height_m", robot_height}};
     for (const Row& row : rows) {
       const GridScores& g = *row.scores;
-      std::snprintf(line, sizeof line, "| %s | %zu | %.3f | %.3f (%zu) | %.3f (%zu) | %.3f (%zu) |\n", row.label,
-                    g.compared, g.accuracy(), g.blocked_recall(), g.blocked, g.free_recall(), g.free,
-                    g.overhang_accuracy(), g.overhang);
-      md << line;
+      md << format("| %s | %zu | %.3f | %.3f (%zu) | %.3f (%zu) | %.3f (%zu) |\n", row.label, g.compared,
+                   g.accuracy(), g.blocked_recall(), g.blocked, g.free_recall(), g.free, g.overhang_accuracy(),
+                   g.overhang);
       nlohmann::json j = grid_json(g);
       report["grid_2d"][row.key] = j;
       j["system"] = row.system;
@@ -323,15 +322,13 @@ void run_compare(const CompareOptions& o) {
           "ceilings). The OctoMap row: occupied leaves whose centre lies between the step and the robot's height "
           "above the local ground (HMAP's ground patches) make a cell occupied, free leaves there free.\n";
   }
-  char cut_line[512];
-  std::snprintf(cut_line, sizeof cut_line,
+  md << format(
                 "\nPictures: compare_top.png (I point cloud, II HMAP, III HMAP 2D scan by scan, IIIB HMAP 2D judged from "
                 "the final map, IV 2.5D, V 2.5D 2D; 2D grids as "
                 "map_server reads them: free white, occupied black, unknown grey) and compare_oblique.png. The 3D "
                 "views leave out what lies above z = %.2f m (the 2.5D map's cut, %.2f m above the sensor's median "
                 "height).\n",
                 z_cut, elevation_params.max_height_above_sensor);
-  md << cut_line;
   report["display_cut_z_m"] = z_cut;
   write_file_atomic(out("report.md"), [&](std::ostream& f) { f << md.str(); });
   write_file_atomic(out("report.json"), [&](std::ostream& f) { f << report.dump(2) << '\n'; });
@@ -350,7 +347,7 @@ void add_compare_command(CLI::App& app) {
   cmd->add_option("--kitti", opts->kitti, "KITTI sequence folder (velodyne/*.bin, poses.txt)");
   cmd->add_option("scans", opts->files, "Scan files, in order (with --poses)");
   cmd->add_option("--poses", opts->poses, "Poses T_map_scan, KITTI or TUM format");
-  cmd->add_option("--scans", opts->scans, "Use only the first N scans");
+  cmd->add_option("--scans", opts->scans, "Use only the first N scans")->check(kCount);
   cmd->add_option("--truth", opts->truth, "Folder with truth.ply and truth_seen.ply (a `hmap simulate` output)");
   cmd->add_option("--robot-height", opts->robot_height, "[m] for the true traversability (default occupancy.z_plus)");
   cmd->add_option("--elevation-ceiling", opts->elevation_ceiling,

@@ -29,7 +29,7 @@ struct DemoOptions {
 
 void run_demo(const DemoOptions& o) {
   const std::filesystem::path dir = o.out;
-  std::filesystem::create_directories(dir);
+  prepare_output_folder(dir);
   const auto t_start = Clock::now();
 
   // 1. Simulate: the scene, the sensor along the scripted path, the truth.
@@ -125,8 +125,8 @@ void add_demo_command(CLI::App& app) {
   cmd->add_option("--sensor", opts->sensor, "vlp16, hdl64, kinect, utm30lx-tilt, utm30lx-yaw")
       ->check(CLI::IsMember({"vlp16", "hdl64", "kinect", "utm30lx-tilt", "utm30lx-yaw"}))
       ->capture_default_str();
-  cmd->add_option("--seed", opts->seed, "Noise seed")->capture_default_str();
-  cmd->add_option("--frames", opts->frames, "Only the first N frames of the path (default: all)");
+  cmd->add_option("--seed", opts->seed, "Noise seed")->check(kCount)->capture_default_str();
+  cmd->add_option("--frames", opts->frames, "Only the first N frames of the path (default: all)")->check(kCount);
   cmd->callback([opts] { run_demo(*opts); });
 }
 

@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "cli_common.hpp"
+#include "hmap/core/format.hpp"
 #include "hmap/io/atomic_file.hpp"
 #include "hmap/pvox/boxes_experiment.hpp"
 #include "hmap/pvox/mapper.hpp"
@@ -56,9 +57,7 @@ FilterRun run_filter(const pvox::BoxesRecording& rec, pvox::FilterKind kind, con
 
 std::string mm(const std::optional<double>& metres) {
   if (!metres) return "—";
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.1f", *metres * 1000.0);
-  return buf;
+  return format("%.1f", *metres * 1000.0);
 }
 
 nlohmann::json run_json(const FilterRun& run, const pvox::BoxesRecording& rec) {
@@ -98,7 +97,7 @@ nlohmann::json run_json(const FilterRun& run, const pvox::BoxesRecording& rec) {
 
 void run_pvox_boxes(const ExperimentOptions& o) {
   const std::filesystem::path dir = o.out;
-  std::filesystem::create_directories(dir);
+  prepare_output_folder(dir);
   pvox::BoxesExperimentParams sim;
   sim.seed = o.seed;
   if (o.quick) {
@@ -139,7 +138,6 @@ void run_pvox_boxes(const ExperimentOptions& o) {
   write_file_atomic(dir / "report.json", report.dump(2) + "\n");
 
   std::ostringstream md;
-  char buf[512];
   md << "# PVOX experiment: the boxes enclosure (seed Table 1, Figures 12–17)\n\n"
      << "Simulated Hokuyo UTM-30LX (σ 10 mm) turning about the vertical, five stop-move-stop positions "
         "(P1 y 0.4, P2 y 1.4, P3 y 2.4 m heading +y; P4 = P3 turned 180°; P5 = P2 heading −y), each move "
@@ -150,12 +148,10 @@ void run_pvox_boxes(const ExperimentOptions& o) {
   for (std::size_t i = 0; i < rbf.edges.size(); ++i) {
     const auto& a = rbf.edges[i];
     const auto& b = brf.edges[i];
-    std::snprintf(buf, sizeof buf, "| %s | %.0f | %s | %.3f | %s | %.3f |\n", a.name.c_str(), a.true_length * 1000.0,
-                  mm(a.measured).c_str(), a.accuracy, mm(b.measured).c_str(), b.accuracy);
-    md << buf;
+    md << format("| %s | %.0f | %s | %.3f | %s | %.3f |\n", a.name.c_str(), a.true_length * 1000.0,
+                 mm(a.measured).c_str(), a.accuracy, mm(b.measured).c_str(), b.accuracy);
   }
-  std::snprintf(buf, sizeof buf, "| **average** | | | **%.3f** | | **%.3f** |\n\n", rbf.average, brf.average);
-  md << buf;
+  md << format("| **average** | | | **%.3f** | | **%.3f** |\n\n", rbf.average, brf.average);
   md << "Each length is the difference of two face coordinates measured on the map (planes: count-weighted median "
         "of flat voxels' point means; face ends: outermost voxel's mean ± √3σ), see docs/PVOX.md.\n\n";
   md << "## Registrations\n\n| position | RBF ms | RBF edge [mm] | RBF σ² [mm²] | RBF error [mm] | BRF ms | BRF σ² [mm²] | BRF error [mm] |\n"
@@ -164,18 +160,16 @@ void run_pvox_boxes(const ExperimentOptions& o) {
     const auto err = [&](const FilterRun& run) {
       return (run.registrations[k].T_map_sensor.translation().head<2>() - rec.T_world_true[k].translation().head<2>()).norm() * 1000.0;
     };
-    std::snprintf(buf, sizeof buf, "| %zu | %.0f | %.2f | %.4f | %.1f | %.0f | %.2f | %.1f |\n", k + 1, rbf.ms[k],
-                  rbf.registrations[k].edge * 1000.0, rbf.registrations[k].posterior_variance.maxCoeff() * 1e6, err(rbf),
-                  brf.ms[k], brf.registrations[k].posterior_variance.maxCoeff() * 1e6, err(brf));
-    md << buf;
+    md << format("| %zu | %.0f | %.2f | %.4f | %.1f | %.0f | %.2f | %.1f |\n", k + 1, rbf.ms[k],
+                 rbf.registrations[k].edge * 1000.0, rbf.registrations[k].posterior_variance.maxCoeff() * 1e6, err(rbf),
+                 brf.ms[k], brf.registrations[k].posterior_variance.maxCoeff() * 1e6, err(brf));
   }
-  std::snprintf(buf, sizeof buf,
+  md << format(
                 "\n## Sizes (RBF map)\n\n| raw points CSV | voxel CSV | binary |\n| --- | --- | --- |\n| %s | %s | %s |\n\n"
                 "Raw / binary = %.0f×.\n\n",
                 human_bytes(static_cast<double>(sizes.raw_csv)).c_str(), human_bytes(static_cast<double>(sizes.voxel_csv)).c_str(),
                 human_bytes(static_cast<double>(sizes.binary)).c_str(),
                 static_cast<double>(sizes.raw_csv) / static_cast<double>(std::max<std::uintmax_t>(1, sizes.binary)));
-  md << buf;
   md << "Pictures: `rbf_top.png`, `rbf_iso.png` (Figure 13), `brf_top.png`, `brf_iso.png` (Figure 12), "
         "`rbf_gradient.png` (p on a slice just above the floor, arrows −∇p: the \"vector field\").\n";
   write_file_atomic(dir / "report.md", md.str());
@@ -194,7 +188,7 @@ void add_experiment_command(CLI::App& app) {
   auto* cmd = app.add_subcommand("experiment", "Reproduce a seed paper's experiment in the simulator (pvox-boxes)");
   cmd->add_option("name", opts->name, "pvox-boxes")->required()->check(CLI::IsMember({"pvox-boxes"}));
   cmd->add_option("--out", opts->out, "Output folder")->required();
-  cmd->add_option("--seed", opts->seed, "Seed of the placement errors and the sensor noise")->capture_default_str();
+  cmd->add_option("--seed", opts->seed, "Seed of the placement errors and the sensor noise")->check(kCount)->capture_default_str();
   cmd->add_flag("--quick", opts->quick, "Coarser scans (1° beams, 61 sweep steps) for a fast run");
   cmd->add_flag("--no-free-space", opts->no_free_space, "Count hits only (no misses along the rays)");
   cmd->callback([opts] { run_pvox_boxes(*opts); });

@@ -5,6 +5,8 @@
 #include <cstdio>
 
 #include "cli_common.hpp"
+#include "hmap/core/format.hpp"
+#include "hmap/io/atomic_file.hpp"
 #include "hmap/core/error.hpp"
 #include "hmap/io/hmap_file.hpp"
 #include "hmap/ground/ground_patches.hpp"
@@ -82,11 +84,10 @@ GridChoice derive_grid(const HMap& map, const ExportOptions& o) {
                 ", " + std::to_string(hint.z()) + "); give --ground-hint X Y Z near the floor");
   }
   const GroundModel model(ground.patches);
-  char what[256];
-  std::snprintf(what, sizeof what,
-                "derived from %zu ground patches (%d RRT iterations, %.1f s); cells without a ground patch within "
-                "%.2f m are unknown",
-                ground.patches.size(), params.ground.iterations, ms_since(t0) / 1000.0, 2.0 * d_n);
+  const std::string what = format(
+      "derived from %zu ground patches (%d RRT iterations, %.1f s); cells without a ground patch within %.2f m are "
+      "unknown",
+      ground.patches.size(), params.ground.iterations, ms_since(t0) / 1000.0, 2.0 * d_n);
   return {occupancy_from_map(map, model, params, 2.0 * d_n), std::move(ground.patches), what};
 }
 
@@ -144,6 +145,22 @@ void run_export(const ExportOptions& o) {
     throw Error("nothing to export: give --ply OUT.ply, --bt OUT.bt, --pgm OUT, --costmap OUT and/or --geotiff OUT.tif");
   }
   validate(o.traversability);
+  if (o.z_step != 0.0 && !(o.z_step >= 1e-3 && o.z_step <= 100.0)) {
+    throw Error(format("--z-step = %g m is out of its range [0.001, 100] m", o.z_step));
+  }
+  if (o.ground_iterations != 0 && !(o.ground_iterations > 0 && o.ground_iterations <= 100000)) {
+    throw Error("--ground-iterations = " + std::to_string(o.ground_iterations) + " is out of its range [1, 100000]");
+  }
+  // Every output checked before the map is read and the work done.
+  if (!o.ply.empty()) check_output_file(o.ply);
+  if (!o.bt.empty()) check_output_file(o.bt);
+  if (!o.pgm.empty()) {
+    for (const char* ext : {".pgm", ".yaml"}) check_output_file(pgm_stem(o.pgm).concat(ext));
+  }
+  if (!o.costmap.empty()) {
+    for (const char* ext : {".pgm", ".yaml"}) check_output_file(pgm_stem(o.costmap).concat(ext));
+  }
+  if (!o.geotiff.empty()) check_output_file(o.geotiff);
   MapFile file = load_map_file(o.map);
   const HMap& map = file.map;
   if (!o.pgm.empty() || !o.costmap.empty() || !o.geotiff.empty()) {
@@ -159,13 +176,13 @@ void run_export(const ExportOptions& o) {
   }
   if (o.ply.empty() && o.bt.empty()) return;
   if (!o.bt.empty()) {
-    const std::size_t leaves = write_octomap_bt(o.bt, map);
+    const std::size_t leaves = write_octomap_bt(o.bt, map, memory_budget());
     std::printf("wrote %zu occupied OctoMap leaves (resolution %.3f m) to %s\n", leaves, map.cell_size(), o.bt.c_str());
     if (o.ply.empty()) return;
   }
   if (o.points) {
     const double step = o.z_step > 0.0 ? o.z_step : map.cell_size();
-    const PointCloud pts = recover_points(map, step);
+    const PointCloud pts = recover_points(map, step, memory_budget());
     write_points_ply(o.ply, pts);
     std::printf("wrote %zu recovered points (every %.3f m up each HVoxel) to %s\n", pts.size(), step, o.ply.c_str());
   } else {

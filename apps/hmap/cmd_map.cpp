@@ -3,6 +3,8 @@
 #include <cstdio>
 
 #include "cli_common.hpp"
+#include "hmap/core/format.hpp"
+#include "hmap/io/atomic_file.hpp"
 #include "hmap/io/hmap_file.hpp"
 #include "hmap/maps/mapper.hpp"
 #include "hmap/occupancy/hybrid_mapper.hpp"
@@ -24,8 +26,8 @@ struct MapOptions {
 
 void run_map(const MapOptions& o) {
   const Params params = o.params.resolve();
+  check_output_file(o.out);  // before the work: a missing folder was found after mapping every scan
   const ScanSource src = ScanSource::open(o.sensors, o.kitti, o.files, o.poses, o.scans, /*poses_required=*/true);
-  if (!src.description.empty()) std::fprintf(stderr, "input: %s\n", src.description.c_str());
   // The hybrid map of section IV by default: the HMAP, the ground patches of Alg. 4 and the 2D
   // grid of eq. (3)-(4), all saved; --hvoxels-only keeps section III alone (faster).
   HybridMapper hybrid(params);
@@ -39,14 +41,16 @@ void run_map(const MapOptions& o) {
     const PointCloud cloud = src.read(k, read_stats);
     const auto t0 = Clock::now();
     ScanStats s;
-    if (o.hvoxels_only) {
-      s = mapper.integrate(cloud, (*src.T_map_scan)[k]);
-    } else {
-      const HybridScanStats h = hybrid.integrate(cloud, (*src.T_map_scan)[k]);
-      s = h.map;
-      no_ground += h.occupancy.no_ground;
-      grid_rays += h.occupancy.rays;
-    }
+    for_scan(src, k, [&] {
+      if (o.hvoxels_only) {
+        s = mapper.integrate(cloud, (*src.T_map_scan)[k]);
+      } else {
+        const HybridScanStats h = hybrid.integrate(cloud, (*src.T_map_scan)[k]);
+        s = h.map;
+        no_ground += h.occupancy.no_ground;
+        grid_rays += h.occupancy.rays;
+      }
+    });
     ms_integrate += ms_since(t0);
     total.points_in += s.points_in;
     total.points_kept += s.points_kept;
@@ -56,6 +60,14 @@ void run_map(const MapOptions& o) {
     progress.update(k + 1, ms_integrate / static_cast<double>(k + 1));
   }
   progress.finish();
+  // Nothing kept from any scan: not a map but a wrong input (a pose or intrinsics file given as
+  // a scan, every point within min_range), which used to save an empty map with exit 0.
+  if (total.points_kept == 0 && read_stats.points_read > 0) {
+    throw Error(format("no point of the %zu read from %zu scans was kept (%zu not finite, %zu out of the %g-%g m range): "
+                       "are these point clouds, and is map.min_range right?",
+                       read_stats.points_read, src.scans.size(), read_stats.non_finite_dropped + total.dropped_non_finite,
+                       total.dropped_range, params.map.min_range, params.map.max_range));
+  }
   const HMap& map = o.hvoxels_only ? mapper.map() : hybrid.map();
   if (o.hvoxels_only) {
     save_hmap(o.out, map);
@@ -64,6 +76,8 @@ void run_map(const MapOptions& o) {
   }
   const MapStats st = map.stats();
   const auto n = static_cast<double>(src.scans.size());
+  // Told with the result, not before the work: an error stays the one line of its run.
+  if (!src.description.empty()) std::printf("input: %s\n", src.description.c_str());
   std::printf(
       "Mapped %zu scans: %s points read, %s kept, %s dropped (%s not finite, %s out of the %.2f-%.2f m "
       "range). Integration took %.1f ms per scan (%s points/s). The map has %zu cells and %zu HVoxels "
@@ -95,7 +109,7 @@ void add_map_command(CLI::App& app) {
   cmd->add_option("--kitti", opts->kitti, "KITTI sequence folder (velodyne/*.bin, poses.txt, calib.txt)");
   cmd->add_option("scans", opts->files, "Scan files (.pcd .ply .bin .xyz .csv .txt .vtk), in order");
   cmd->add_option("--poses", opts->poses, "Poses T_map_scan, KITTI or TUM format, one per scan");
-  cmd->add_option("--scans", opts->scans, "Use only the first N scans");
+  cmd->add_option("--scans", opts->scans, "Use only the first N scans")->check(kCount);
   cmd->add_option("--out,-o", opts->out, "Output map file (.hmap)")->required();
   cmd->add_flag("--hvoxels-only", opts->hvoxels_only,
                 "Build the HMAP alone (section III), without the ground patches and the 2D grid");

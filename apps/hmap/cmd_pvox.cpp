@@ -2,6 +2,8 @@
 // with the recursive Bayesian filter, and write the map, pictures and a summary.
 
 #include <algorithm>
+#include <array>
+#include <string_view>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -38,9 +40,38 @@ struct PvoxOptions {
   std::string out;
 };
 
+/// What a pvox run writes into its folder: the folder is replaced as a whole, so one that holds
+/// anything else is refused before the work instead of losing it.
+constexpr std::array<std::string_view, 7> kPvoxFiles = {"map.pvox",     "voxels.csv",  "points.csv",      "summary.json",
+                                                         "map_top.png", "map_iso.png", "map_gradient.png"};
+
+void check_pvox_folder(const std::filesystem::path& out) {
+  std::error_code ec;
+  const auto status = std::filesystem::symlink_status(out, ec);
+  if (ec || !std::filesystem::exists(status)) {
+    check_output_folder(out.has_parent_path() ? out.parent_path() : std::filesystem::path("."), out);
+    return;
+  }
+  if (!std::filesystem::is_directory(status)) throw Error(out.string() + ": the output folder is not a folder");
+  check_output_folder(out.has_parent_path() ? out.parent_path() : std::filesystem::path("."), out);
+  for (const auto& entry : std::filesystem::directory_iterator(out)) {
+    const std::string name = entry.path().filename().string();
+    const bool ours = std::find(kPvoxFiles.begin(), kPvoxFiles.end(), name) != kPvoxFiles.end();
+    if (!ours || !entry.is_regular_file()) {
+      throw Error(out.string() + ": holds '" + name + "', which pvox does not write; the folder is replaced as a whole, so give a new one");
+    }
+  }
+}
+
+/// Maps the scans of `src` with `mapper` and writes the folder's files into `dir`.
+void write_pvox_run(const PvoxOptions& o, const ScanSource& src, pvox::PvoxMapper& mapper, const PoseList* command_source,
+                    bool use_poses, const std::filesystem::path& dir);
+
 void run_pvox(const PvoxOptions& o) {
+  // The folder's files are one set (the map, its CSV, pictures and summary): written into a
+  // staging folder and swapped in at the end, so that a kill leaves the old set or the new one.
+  check_pvox_folder(o.out);  // before the work
   const ScanSource src = ScanSource::open(o.sensors, o.kitti, o.files, o.poses, o.max_scans, false);
-  if (!src.description.empty()) std::fprintf(stderr, "input: %s\n", src.description.c_str());
   std::optional<PoseList> odometry;
   if (!o.odometry.empty()) {
     odometry = read_poses(o.odometry);
@@ -63,12 +94,24 @@ void run_pvox(const PvoxOptions& o) {
   params.insert.min_range = o.min_range;
   params.insert.max_range = o.max_range;
   params.insert.free_space = o.free_space ? pvox::FreeSpace::kRays : pvox::FreeSpace::kOff;
+  params.budget = memory_budget();
   pvox::PvoxMapper mapper(params);
 
   // Commands: the odometry's relative motions, else those of the given poses, else standing still.
   const PoseList* command_source = odometry ? &*odometry : src.T_map_scan ? &*src.T_map_scan : nullptr;
-  const std::filesystem::path dir = o.out;
-  std::filesystem::create_directories(dir);
+  const std::filesystem::path staging = make_staging_folder(o.out);
+  try {
+    write_pvox_run(o, src, mapper, command_source, use_poses, staging);
+  } catch (...) {
+    std::error_code ignored;
+    std::filesystem::remove_all(staging, ignored);
+    throw;
+  }
+  replace_folder_atomic(staging, o.out);
+}
+
+void write_pvox_run(const PvoxOptions& o, const ScanSource& src, pvox::PvoxMapper& mapper, const PoseList* command_source,
+                    bool use_poses, const std::filesystem::path& dir) {
   PointCloud raw_points;
   std::vector<double> ms;
   std::vector<pvox::RegistrationResult> results;
@@ -84,7 +127,7 @@ void run_pvox(const PvoxOptions& o) {
     std::optional<Eigen::Vector2d> measured;
     if (use_poses) measured = (*src.T_map_scan)[k].translation().head<2>();
     const auto t0 = Clock::now();
-    results.push_back(mapper.add_scan(cloud, command, measured));
+    results.push_back(for_scan(src, k, [&] { return mapper.add_scan(cloud, command, measured); }));
     ms.push_back(ms_since(t0));
     points += cloud.size();
     if (o.raw_csv) {
@@ -150,12 +193,14 @@ void run_pvox(const PvoxOptions& o) {
   write_file_atomic(dir / "summary.json", summary.dump(2) + "\n");
   double total_ms = 0.0;
   for (const double m : ms) total_ms += m;
+  // Told with the result, not before the work: an error stays the one line of its run.
+  if (!src.description.empty()) std::printf("input: %s\n", src.description.c_str());
   std::printf("pvox: %zu scans, %s points, edge %.1f mm, %zu voxels (%zu occupied), %.0f ms per scan; "
               "map.pvox %s, voxels.csv %s%s; wrote %s\n",
               src.scans.size(), human_count(static_cast<double>(points)).c_str(), map.edge() * 1000.0, map.voxel_count(),
               occupied.size(), ms.empty() ? 0.0 : total_ms / static_cast<double>(ms.size()),
               human_bytes(static_cast<double>(sizes.binary)).c_str(), human_bytes(static_cast<double>(sizes.voxel_csv)).c_str(),
-              o.raw_csv ? (", points.csv " + human_bytes(static_cast<double>(sizes.raw_csv))).c_str() : "", dir.c_str());
+              o.raw_csv ? (", points.csv " + human_bytes(static_cast<double>(sizes.raw_csv))).c_str() : "", o.out.c_str());
 }
 
 }  // namespace
@@ -179,7 +224,7 @@ void add_pvox_command(CLI::App& app) {
   cmd->add_option("--measurement-variance", o->measurement_variance_mm2, "[mm²] of a measured position")->capture_default_str();
   cmd->add_flag("--free-space", o->free_space, "Lower the probability of voxels that rays cross (3D DDA)");
   cmd->add_flag("--raw-csv", o->raw_csv, "Also write the registered points as points.csv (to compare sizes)");
-  cmd->add_option("--max-scans", o->max_scans, "Use at most this many scans (0: all)");
+  cmd->add_option("--max-scans", o->max_scans, "Use at most this many scans (0: all)")->check(kCount);
   cmd->add_option("--out", o->out, "Output folder")->required();
   o->sensors.add_to(*cmd);
   cmd->callback([o] { run_pvox(*o); });

@@ -1,8 +1,11 @@
 // hmap render: pictures of a map — top-down or oblique, with trajectories over the top view.
 
+#include <cmath>
 #include <cstdio>
 
 #include "cli_common.hpp"
+#include "hmap/core/format.hpp"
+#include "hmap/io/atomic_file.hpp"
 #include "hmap/core/error.hpp"
 #include "hmap/io/hmap_file.hpp"
 #include "hmap/io/poses.hpp"
@@ -24,6 +27,13 @@ struct RenderOptions {
 };
 
 void run_render(const RenderOptions& o) {
+  for (const double z : {o.range.z_low, o.range.z_high}) {
+    // NaN: not given. Beyond ±100 km no map has heights, and adding a step to 1e17 changes nothing.
+    if (!std::isnan(z) && !(std::abs(z) <= 1e5)) {
+      throw Error(format("--z-low / --z-high = %g m is out of its range [-100000, 100000] m", z));
+    }
+  }
+  check_output_file(o.out);
   const MapFile file = load_map_file(o.map);
   const HMap& map = file.map;
   if (map.stats().hvoxels == 0) throw Error(o.map + ": the map is empty, nothing to render");

@@ -17,6 +17,7 @@ struct SimulateOptions {
 };
 
 void run_simulate(const SimulateOptions& o) {
+  prepare_output_folder(o.out);  // before the work
   Progress progress("simulating", 1);
   const auto t0 = Clock::now();
   std::size_t total = 0;
@@ -51,11 +52,11 @@ void add_simulate_command(CLI::App& app) {
   cmd->add_option("--sensor", opts->spec.sensor, "vlp16, hdl64, kinect, utm30lx-tilt, utm30lx-yaw")
       ->check(CLI::IsMember({"vlp16", "hdl64", "kinect", "utm30lx-tilt", "utm30lx-yaw"}))
       ->capture_default_str();
-  cmd->add_option("--frames", opts->spec.frames, "Number of frames (default: the whole path)");
+  cmd->add_option("--frames", opts->spec.frames, "Number of frames (default: the whole path)")->check(kCount);
   cmd->add_option("--stride", opts->spec.stride, "Keep every N-th frame of the 10 Hz path")->capture_default_str();
   cmd->add_flag("--long-route", opts->spec.long_route,
                 "parking: drive on after the side road (U-turn, back south, east to the street's end; ~313 m)");
-  cmd->add_option("--seed", opts->spec.seed, "Noise seed")->capture_default_str();
+  cmd->add_option("--seed", opts->spec.seed, "Noise seed")->check(kCount)->capture_default_str();
   cmd->add_option("--truth-spacing", opts->spec.truth_spacing, "Spacing of the true surface sample [m]")->capture_default_str();
   cmd->add_option("--out,-o", opts->out, "Output folder")->required();
   cmd->callback([opts] { run_simulate(*opts); });

@@ -7,6 +7,7 @@
 
 #include "cli_common.hpp"
 #include "hmap/core/error.hpp"
+#include "hmap/core/format.hpp"
 #include "hmap/core/sensor_profile.hpp"
 #include "hmap/io/atomic_file.hpp"
 #include "hmap/io/hmap_file.hpp"
@@ -81,8 +82,8 @@ void run_slam(const SlamOptions& o) {
     params.slam.imu_yaw = o.imu_rpy[2];
     validate(params);
   }
+  prepare_output_folder(o.out);  // before the work
   const ScanSource src = ScanSource::open(o.sensors, o.kitti, o.files, "", o.scans, /*poses_required=*/false);
-  if (!src.description.empty()) std::fprintf(stderr, "input: %s\n", src.description.c_str());
   // Defaults the first scan can tell (the ring spacing), for parameters left at the preset's value.
   CloudReadStats read_stats;
   std::optional<PointCloud> first;
@@ -92,9 +93,7 @@ void run_slam(const SlamOptions& o) {
     first = src.read(0, read_stats, &first_times);
     const SensorProfile sensor = profile_scan(*first);
     for (const ChosenDefault& c : adapt_to_sensor(params, hmap::preset(o.params.preset), sensor)) {
-      char line[256];
-      std::snprintf(line, sizeof line, " %s = %g (%s).", c.name.c_str(), c.value, c.reason.c_str());
-      chosen_text += line;
+      chosen_text += format(" %s = %g (%s).", c.name.c_str(), c.value, c.reason.c_str());
     }
     validate(params);
   }
@@ -145,7 +144,6 @@ void run_slam(const SlamOptions& o) {
   }
   if (!o.gt.empty()) truth = read_scan_poses(o.gt, n, T_cam_velo);
 
-  std::filesystem::create_directories(o.out);
   slam::HmapSlam slam(params);
   // The first scan defines the map frame; with a reference it starts at the reference's first
   // pose (x, y, yaw below; its height here), so that ATE needs no alignment.
@@ -191,7 +189,7 @@ void run_slam(const SlamOptions& o) {
       const auto hi = std::max_element(point_times.begin(), point_times.end());
       in.imu = imu->prior_at(times[k], hi == point_times.end() ? 0.0 : static_cast<double>(*hi));
     }
-    const slam::SlamStep step = slam.process(in);
+    const slam::SlamStep step = for_scan(src, k, [&] { return slam.process(in); });
     deskewed += step.deskewed ? 1 : 0;
     const double ms = ms_since(t0);
     ms_total += ms;
@@ -200,8 +198,7 @@ void run_slam(const SlamOptions& o) {
       const slam::PlanarPose xi = slam::planar_of(step.T_map_sensor);
       const slam::Attitude at = slam::attitude_of(step.T_map_sensor);
       const auto& af = step.attitude;
-      char line[768];
-      std::snprintf(line, sizeof line,
+      log += format(
                     "%zu,%d,%d,%d,%.6g,%.6g,%.6g,%zu,%d,%d,%d,%.6g,%.6g,%.6g,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,"
                     "%d,%zu,%.4f,%d,%d,%d,%d,%d,%d,%d,%d,%d,%.3f\n",
                     k, step.matched ? 1 : 0, m.converged ? 1 : 0, m.iterations, m.initial_cost, m.final_cost, m.score,
@@ -211,7 +208,6 @@ void run_slam(const SlamOptions& o) {
                     step.observable[1] ? 1 : 0, step.observable[2] ? 1 : 0, step.observable[3] ? 1 : 0,
                     step.observable[4] ? 1 : 0, step.observable[5] ? 1 : 0, step.planar_passes, step.deskewed ? 1 : 0,
                     step.imu_used ? 1 : 0, ms);
-      log += line;
     }
     estimate.push_back(step.T_map_sensor);
     if (step.matched) {
@@ -241,6 +237,8 @@ void run_slam(const SlamOptions& o) {
   const double matched = n > 1 ? static_cast<double>(n - 1) : 1.0;
   const double scored = n > 1 + skipped ? static_cast<double>(n - 1 - skipped) : 1.0;  // mean M_H over these
   const MapStats st = slam.map().stats();
+  // Told with the result, not before the work: an error stays the one line of its run.
+  if (!src.description.empty()) std::printf("input: %s\n", src.description.c_str());
   std::printf(
       "SLAM on %zu scans: %.1f ms per scan (%.1f scans/s, matching and map update), %.1f Gauss-Newton "
       "iterations per scan, %zu of %zu matches converged, %zu degenerate, %zu needed the coarse search, "
@@ -280,7 +278,7 @@ void add_slam_command(CLI::App& app) {
                   "IMU mounting R_sensor_imu = Rz(yaw)Ry(pitch)Rx(roll) as ROLL PITCH YAW [rad] (slam.imu_roll, "
                   "imu_pitch, imu_yaw; default identity)")
       ->expected(3);
-  cmd->add_option("--scans", opts->scans, "Use only the first N scans");
+  cmd->add_option("--scans", opts->scans, "Use only the first N scans")->check(kCount);
   cmd->add_option("--out,-o", opts->out, "Output folder")->required();
   opts->params.add_to(*cmd);
   opts->sensors.add_to(*cmd);

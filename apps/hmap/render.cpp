@@ -4,6 +4,7 @@
 #include <array>
 #include <limits>
 
+#include "hmap/core/checked.hpp"
 #include "hmap/core/error.hpp"
 #include "hmap/ground/ground_patches.hpp"
 #include "hmap/occupancy/occupancy_grid.hpp"
@@ -87,7 +88,12 @@ RgbImage render_oblique(const HMap& map, const HeightRange& range_in, int max_pi
       const double z_lo = std::clamp(static_cast<double>(hv.z_min), range.z_low - 2.0, range.z_high + 2.0);
       const double z_hi = std::clamp(static_cast<double>(hv.z_max), range.z_low - 2.0, range.z_high + 2.0);
       const double step = 1.0 / (px_per_m * ce);
-      for (double z = z_lo; z <= z_hi + 1e-9; z += step) {
+      // Counted, not `z += step`: at z = 1e17 adding a step changes nothing and the loop never
+      // ended. The bar is clamped to the drawn heights, so it spans at most the picture's height.
+      const std::optional<int> last = floor_to<int>((z_hi - z_lo + 1e-9) / step);
+      if (!last || *last > h + 1) throw Error("an oblique bar spans more than the picture's " + std::to_string(h) + " pixels");
+      for (int n = 0; n <= *last; ++n) {
+        const double z = z_lo + n * step;
         double u = 0, v = 0, d = 0;
         project(xy.x(), xy.y(), z, u, v, d);
         const int x = static_cast<int>((u - umin) * px_per_m);

@@ -6,6 +6,7 @@
 #include <variant>
 
 #include "hmap/core/error.hpp"
+#include "hmap/io/read_support.hpp"
 #include "hmap/sim/builtin_scenes.hpp"
 #include "hmap/sim/scene_json.hpp"
 #include "hmap/sim/sensors.hpp"
@@ -83,12 +84,9 @@ SimulatedRecording simulate(const SimulationSpec& spec, const std::function<void
   if (!(spec.truth_spacing >= 0.005)) throw Error("--truth-spacing must be at least 0.005 m");
   sim::Scene scene = [&] {
     if (spec.scene_file.empty()) return sim::make_scene(spec.scene);
-    std::ifstream in(spec.scene_file, std::ios::binary);
-    if (!in) throw InputError(spec.scene_file, "", "cannot open the scene file");
-    std::ostringstream text;
-    text << in.rdbuf();
+    const std::string text = detail::read_file_bytes(spec.scene_file, std::size_t{64} << 20);
     try {
-      return sim::scene_from_json(text.str());
+      return sim::scene_from_json(text);
     } catch (const Error& e) {
       throw InputError(spec.scene_file, "", e.what());
     }

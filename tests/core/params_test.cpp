@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <string>
 
 #include "hmap/core/error.hpp"
@@ -76,6 +77,91 @@ TEST(ErrorTest, MessagesAreOneLineOfPrintableText) {
   EXPECT_EQ(long_message.substr(1024), " [4009 more bytes cut]");
   // Bytes that are not UTF-8 (random data quoted from a file), and C1 controls (U+009B is CSI).
   EXPECT_STREQ(Error(std::string("a\xff\xc3(\xc2\x9b[31m\xe2\x82")).what(), "a\\xFF\\xC3(\\xC2\\x9B[31m\\xE2\\x82");
+}
+
+/// validate() of `params` with `name` set to `value`: "" when accepted, else the message.
+std::string validate_with(const std::string& name, double value) {
+  Params p;
+  const std::string refused = set(p, name, value);
+  if (!refused.empty()) return refused;
+  try {
+    validate(p);
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(ParamsTest, EveryParameterHasAFiniteRangeTheDefaultsLieIn) {
+  for (const Params& preset : {indoor_preset(), outdoor_preset()}) {
+    Params p = preset;
+    for (const auto& r : param_refs(p)) {
+      EXPECT_TRUE(std::isfinite(r.range.min) && std::isfinite(r.range.max)) << r.name;
+      EXPECT_LT(r.range.min, r.range.max) << r.name;
+      EXPECT_TRUE(r.range.contains(r.get())) << r.name << " = " << r.get() << " outside " << r.range.text();
+    }
+    EXPECT_NO_THROW(validate(preset));
+  }
+}
+
+// Every parameter at the ends of its range, just beyond them, at NaN, ±infinity and ±1e300: a
+// value beyond the range is refused with the parameter's name, its value and its range; any
+// other outcome is acceptance or a refusal naming a parameter (a rule between two), never a crash.
+TEST(ParamsTest, EveryParameterAtItsExtremesIsTakenOrRefusedByName) {
+  Params scratch;
+  const auto refs = param_refs(scratch);
+  ASSERT_EQ(refs.size(), 46U);  // a new parameter needs its range, and a look at this test
+  const double inf = std::numeric_limits<double>::infinity();
+  for (const auto& r : refs) {
+    const ParamRange& range = r.range;
+    const double lo_in = range.min_open ? std::nextafter(range.min, inf) : range.min;
+    const double hi_in = range.max_open ? std::nextafter(range.max, -inf) : range.max;
+    const double lo_out = range.min_open ? range.min : std::nextafter(range.min, -inf);
+    const double hi_out = range.max_open ? range.max : std::nextafter(range.max, inf);
+    for (const double v : {lo_in, hi_in}) {
+      const std::string m = validate_with(r.name, v);
+      EXPECT_TRUE(m.empty() || m.starts_with("parameter ")) << r.name << " = " << v << ": " << m;
+    }
+    const bool integer = r.name == "ground.iterations" || r.name == "ground.seed" || r.name == "map.free_space" ||
+                         r.name.starts_with("slam.interpolation") || r.name == "slam.max_iterations" ||
+                         r.name == "slam.max_hvoxels" || r.name == "slam.attitude_iterations";
+    for (const double v : {lo_out, hi_out, std::nan(""), inf, -inf, 1e300, -1e300}) {
+      // An integer just beyond its range rounds back into it: step a whole unit out instead.
+      double out = integer && std::isfinite(v) && std::abs(v) < 1e300 ? (v < range.min ? range.min - 1.0 : range.max + 1.0) : v;
+      if (out == range.max) out = std::nextafter(out, inf);  // 2^64 - 2048 + 1 is 2^64 - 2048 again
+      const std::string m = validate_with(r.name, out);
+      ASSERT_FALSE(m.empty()) << r.name << " = " << out << " accepted";
+      EXPECT_TRUE(m.starts_with("parameter " + r.name + " = ")) << m;
+      // Not a type's limit first: then the message names the range.
+      if (m.find("must be an integer") == std::string::npos) {
+        EXPECT_NE(m.find("is out of its range " + range.text()), std::string::npos) << m;
+      }
+    }
+  }
+}
+
+TEST(ParamsTest, RangesAreHandComputedAndNamedInTheMessage) {
+  EXPECT_EQ(validate_with("ground.iterations", 2147483647.0),
+            "parameter ground.iterations = 2147483647 is out of its range [0, 100000]");
+  EXPECT_EQ(validate_with("occupancy.clamp_min", 0.5), "parameter occupancy.clamp_min = 0.5 is out of its range (0, 0.5)");
+  EXPECT_EQ(validate_with("slam.coarse_translation", 300.0),
+            "parameter slam.coarse_translation = 300 is out of its range [0, 20] m");
+  EXPECT_EQ(validate_with("slam.coarse_rotation", 1e12), "parameter slam.coarse_rotation = 1000000000000 is out of its range "
+                                                        "[0, 3.141592653589793] rad");
+  EXPECT_EQ(validate_with("map.cell_size", std::nan("")), "parameter map.cell_size = nan is out of its range [0.001, 100] m");
+  // The coarse search of 2-cell steps walks at most 50 each way: 20 m at 0.25 m cells is 40 steps,
+  // at 0.05 m (indoor) 200.
+  EXPECT_EQ(validate_with("slam.coarse_translation", 20.0), "");
+  Params indoor = indoor_preset();
+  indoor.slam.coarse_translation = 5.5;
+  try {
+    validate(indoor);
+    ADD_FAILURE() << "5.5 m at 0.05 m cells accepted";
+  } catch (const Error& e) {
+    EXPECT_STREQ(e.what(), "parameter slam.coarse_translation = 5.5 is invalid: must be at most 100 cells (100 * map.cell_size)");
+  }
+  indoor.slam.coarse_translation = 5.0;
+  EXPECT_NO_THROW(validate(indoor));
 }
 
 }  // namespace

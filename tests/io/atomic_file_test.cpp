@@ -14,6 +14,7 @@ namespace hmap {
 namespace {
 
 using test::contains;
+using test::input_error_of;  // hmap::Error too: "<not an InputError: MESSAGE>"
 
 class AtomicFileTest : public test::IoTest {
  protected:
@@ -95,6 +96,43 @@ TEST_F(AtomicFileTest, FailsInMissingFolder) {
     EXPECT_TRUE(contains(e.what(), path.string()));
     EXPECT_TRUE(contains(e.what(), "No such file or directory"));
   }
+}
+
+TEST_F(AtomicFileTest, NeverReplacesWhatIsNotARegularFile) {
+  const auto fifo = dir_ / "f.fifo";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0644), 0);
+  std::filesystem::create_directory(dir_ / "d");
+  for (const auto& target : {fifo, dir_ / "d"}) {
+    EXPECT_TRUE(contains(input_error_of([&] { write_file_atomic(target, std::string_view("x")); }),
+                         "not a regular file: refusing to replace it"));
+    EXPECT_TRUE(contains(input_error_of([&] { check_output_file(target); }), "not a regular file"));
+  }
+  struct stat st {};
+  ASSERT_EQ(::stat(fifo.c_str(), &st), 0);
+  EXPECT_TRUE(S_ISFIFO(st.st_mode));
+  EXPECT_EQ(files_in_dir(), 2U);  // no temporary left
+  EXPECT_TRUE(contains(input_error_of([&] { check_output_file(dir_ / "none" / "m.hmap"); }),
+                       "the output folder " + (dir_ / "none").string() + " does not exist"));
+  EXPECT_NO_THROW(check_output_file(dir_ / "new.hmap"));
+}
+
+TEST_F(AtomicFileTest, AFolderIsReplacedAsAWhole) {
+  const auto target = dir_ / "set";
+  // New folder: renamed into place.
+  auto staging = make_staging_folder(target);
+  write_file_atomic(staging / "a.txt", std::string_view("1"));
+  replace_folder_atomic(staging, target);
+  EXPECT_EQ(read(target / "a.txt"), "1");
+  // Over an old one: exchanged, the old set gone with its file the new set lacks.
+  std::ofstream(target / "old_only.txt") << "old";
+  staging = make_staging_folder(target);
+  EXPECT_TRUE(staging.filename().string().starts_with(".set.tmp."));
+  write_file_atomic(staging / "a.txt", std::string_view("2"));
+  replace_folder_atomic(staging, target);
+  EXPECT_EQ(read(target / "a.txt"), "2");
+  EXPECT_FALSE(std::filesystem::exists(target / "old_only.txt"));
+  EXPECT_FALSE(std::filesystem::exists(staging));
+  EXPECT_EQ(files_in_dir(), 1U);
 }
 
 }  // namespace

@@ -112,6 +112,21 @@ TEST_F(PlyTest, SkipsAsciiElementsBeforeVertices) {
   EXPECT_EQ(stats.non_finite_dropped, 1U);
 }
 
+TEST_F(PlyTest, ReadsAsciiLineByLine) {
+  // Issue 14: tokens were read across lines, so a vertex missing its z took the next line's x and
+  // shifted every later vertex by one value.
+  const std::string head = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                           "property float z\nend_header\n";
+  const auto error = [&](const std::string& body) { return input_error_of([&] { (void)read_ply(write("l.ply", head + body)); }); };
+  EXPECT_TRUE(contains(error("1 2 3\n4 5\n6 7 8\n9 9 9\n"),
+                       "l.ply: line 9: too few values for element 'vertex' record 1 (3 properties, a record per line)"));
+  EXPECT_TRUE(contains(error("1 2 3 4\n5 6 7\n8 9 9\n"), "l.ply: line 8: more values than element 'vertex' record 0"));
+  // Blank lines between records and trailing spaces or CR are fine.
+  const PointCloud cloud = read_ply(write("ok.ply", head + "1 2 3 \r\n\n4 5 6\n7 8 9"));
+  ASSERT_EQ(cloud.size(), 3U);
+  EXPECT_EQ(cloud[2], Point3f(7, 8, 9));
+}
+
 TEST_F(PlyTest, RejectsMalformedHeaders) {
   const auto error = [&](const std::string& text) {
     return input_error_of([&] { (void)read_ply(write("h.ply", text)); });

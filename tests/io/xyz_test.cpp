@@ -44,13 +44,33 @@ TEST_F(XyzTest, UsesColumnsNamedInTheHeader) {
   EXPECT_EQ(compare[0], Point3f(1, 2, 3));
 }
 
-TEST_F(XyzTest, SkipsAHeaderWithoutNamesAndAPtsCount) {
-  const PointCloud unnamed = read_xyz(write("p.txt", "easting northing height\n1 2 3\n"));
-  ASSERT_EQ(unnamed.size(), 1U);
-  EXPECT_EQ(unnamed[0], Point3f(1, 2, 3));
+TEST_F(XyzTest, ReadsAPtsCountAndRefusesAHeaderWithoutNames) {
   const PointCloud pts = read_xyz(write("p.pts", "2\n1 2 3 -1200 10 20 30\n4 5 6 -1100 10 20 30\n"));
   ASSERT_EQ(pts.size(), 2U);
   EXPECT_EQ(pts[1], Point3f(4, 5, 6));
+  EXPECT_TRUE(contains(input_error_of([&] { (void)read_xyz(write("p.pts", "3\n1 2 3\n4 5 6\n")); }),
+                       "p.pts: line 1: the point count 3 does not match the 2 points that follow"));
+  // Issue 14: the columns are not guessed as 0-2 when the header does not name x, y and z.
+  EXPECT_TRUE(contains(input_error_of([&] { (void)read_xyz(write("p.txt", "easting northing height\n1 2 3\n")); }),
+                       "p.txt: line 1: a header must name the columns x, y and z, found 'easting northing height'"));
+  // An intrinsics or a pose file is not a cloud: its words are not a header naming x, y, z.
+  EXPECT_TRUE(contains(input_error_of([&] { (void)read_xyz(write("k.txt", "fx fy cx cy\n525 525 319.5 239.5\n")); }),
+                       "k.txt: line 1: a header must name the columns x, y and z"));
+}
+
+TEST_F(XyzTest, StrictLinesBomAndDecimalCommas) {
+  // A line of two numbers was taken for a header and skipped: "1 2" then "3 4 5 6" mapped (3, 4, 5).
+  EXPECT_TRUE(contains(input_error_of([&] { (void)read_xyz(write("two.xyz", "1 2\n3 4 5 6\n")); }),
+                       "two.xyz: line 1: expected at least 3 values, found 2"));
+  // A UTF-8 byte order mark before the header no longer hides the x column.
+  const PointCloud bom = read_xyz(write("bom.csv", "\xEF\xBB\xBFx,y,z\n1,2,3\n"));
+  ASSERT_EQ(bom.size(), 1U);
+  EXPECT_EQ(bom[0], Point3f(1, 2, 3));
+  const PointCloud bom_data = read_xyz(write("bom.xyz", "\xEF\xBB\xBF" "1 2 3\n"));
+  ASSERT_EQ(bom_data.size(), 1U);
+  // Decimal commas were read as (1, 5, 2).
+  EXPECT_TRUE(contains(input_error_of([&] { (void)read_xyz(write("dc.csv", "1,5;2,5;3,5\n")); }),
+                       "dc.csv: line 1: '1,5' is not a number (a decimal comma? write 1.5, not 1,5)"));
 }
 
 TEST_F(XyzTest, DropsNonFinitePoints) {

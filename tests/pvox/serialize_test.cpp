@@ -110,5 +110,13 @@ TEST(Serialize, PointsCsv) {
   EXPECT_EQ(points_csv({}), "x,y,z\n");
 }
 
+TEST(Serialize, CsvLinesOfHugeNumbersAreWhole) {
+  // 1e30f is 1000000015047466219876688855040 exactly: 36 characters with "%.4f", three of them
+  // overflowed the writer's 96-byte line buffer (issue 14; ASan: stack-buffer-overflow).
+  const std::string x = "1000000015047466219876688855040.0000";
+  EXPECT_EQ(points_csv({Point3f(1e30F, -1e30F, 1e30F), Point3f(1.0F, 2.0F, 3.0F)}),
+            "x,y,z\n" + x + ",-" + x + "," + x + "\n1.0000,2.0000,3.0000\n");
+}
+
 }  // namespace
 }  // namespace hmap::pvox

@@ -8,6 +8,7 @@
 
 #include "hmap/core/error.hpp"
 #include "hmap/pvox/mapper.hpp"
+#include "hmap/pvox/serialize.hpp"
 
 namespace hmap::pvox {
 namespace {
@@ -161,6 +162,69 @@ TEST(Mapper, EdgeFollowsKSigmaOfThePosterior) {
   EXPECT_DOUBLE_EQ(fixed.add_scan(scan, Pose::Identity()).edge, 0.1);
   p.k_sigma = -1.0;
   EXPECT_THROW(PvoxMapper{p}, Error);
+}
+
+TEST(VoxelMapBudget, ANewBlockBeyondTheBudgetIsRefusedBeforeItIsAllocated) {
+  // A block of 4^3 voxels of 44 bytes (two counts, three sums, six second moments) is 2816 bytes,
+  // counted with its key (12) and five pointers of the hash table (40): 2868 bytes. 1 MiB holds
+  // 1048576 / 2868 = 365.6 of them: noisy points 1 m apart each take a block of their own.
+  VoxelMap map(0.05);
+  map.set_budget(MemoryBudget{std::size_t{1} << 20});
+  for (int k = 0; k < 365; ++k) map.add_hit(Eigen::Vector3d(k, 0.0, 0.0));
+  EXPECT_EQ(map.block_count(), 365U);
+  map.add_hit(Eigen::Vector3d(0.01, 0.0, 0.0));  // an existing block costs nothing
+  try {
+    map.add_hit(Eigen::Vector3d(365.0, 0.0, 0.0));
+    ADD_FAILURE() << "block 366 allocated";
+  } catch (const Error& e) {
+    EXPECT_STREQ(e.what(), "the voxel map (366 blocks of 4^3 voxels of 0.05 m) needs 2 MiB, more than the memory budget "
+                           "of 1 MiB (hmap --max-memory MIB)");
+  }
+  EXPECT_EQ(map.block_count(), 365U);
+  // The budget goes with a re-voxelation.
+  map.set_edge(0.1);
+  EXPECT_EQ(map.budget().bytes, std::size_t{1} << 20);
+}
+
+TEST(VoxelMapBudget, ADecodedFileGrowsNoFurtherThanTheBudget) {
+  VoxelMap map(0.05);
+  for (int k = 0; k < 400; ++k) map.add_hit(Eigen::Vector3d(k, 0.0, 0.0));
+  const auto bytes = encode_binary(map);
+  EXPECT_EQ(decode_binary(bytes, "m.pvox").voxel_count(), 400U);
+  try {
+    (void)decode_binary(bytes, "m.pvox", MemoryBudget{std::size_t{1} << 20});
+    ADD_FAILURE() << "decoded beyond the budget";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("m.pvox: voxel 365 of 400: the voxel map (366 blocks"), std::string::npos) << e.what();
+  }
+}
+
+TEST(PvoxParamsRanges, EdgesRangesAndPosesBeyondTheKeysAreRefused) {
+  PvoxParams p;
+  p.fixed_edge = 1e-300;  // before: every point beyond the key range, an empty map with exit 0
+  try {
+    p.validate();
+    ADD_FAILURE();
+  } catch (const Error& e) {
+    EXPECT_STREQ(e.what(), "pvox: voxel edge = 1e-300 m is out of its range [0.0001, 100]");
+  }
+  p.fixed_edge = 0.05;
+  EXPECT_NO_THROW(p.validate());
+  p.insert.max_range = 1e6;  // before: 4 GB of ray voxels from a 160-byte scan
+  EXPECT_THROW(p.validate(), Error);
+  p.insert.max_range = 60.0;
+  p.fixed_edge = 1e200;
+  EXPECT_THROW(p.validate(), Error);
+  VoxelMap map(0.05);
+  Pose far = Pose::Identity();
+  far.translation() = Eigen::Vector3d(1e30, 0.0, 0.0);
+  const PointCloud one = {Point3f(1.0F, 0.0F, 0.0F)};
+  try {
+    (void)map.insert(one, far, InsertParams{});
+    ADD_FAILURE() << "a pose 1e30 m away accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("beyond the voxel key range of +-1e+08 m at edge 0.05 m"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

@@ -3,7 +3,11 @@
 
 #include <gtest/gtest.h>
 
+#include <sys/stat.h>
+
 #include <algorithm>
+
+#include "hmap/io/hmap_file.hpp"
 
 #include "common/test_data.hpp"
 #include "reliability/reliability_util.hpp"
@@ -93,6 +97,100 @@ TEST_F(CliErrorsTest, AbsurdParametersAreRefusedByName) {
   expect_refusal(with({"--max-range", "1e9"}), {"map.max_range"});
   expect_refusal(with({"--set", "ground.iterations=4294967696"}), {"ground.iterations", "integer"});
   expect_refusal(with({"--set", "map.cell_size=nan"}), {"map.cell_size"});
+}
+
+// Issue 14: outputs that are not regular files, missing folders, inputs that are not regular
+// files, parameters without bounds, loops and allocations sized by a map.
+
+TEST_F(CliErrorsTest, OutputsThatAreNotRegularFilesAreNeverReplaced) {
+  const std::string fifo = path("out.fifo");
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0644), 0);
+  // A link to /dev/null: as root, --out /dev/null had its device node replaced by a regular file;
+  // through a link the test shows the refusal without risking the machine's /dev/null.
+  const std::string null_link = path("null.hmap");
+  fs::create_symlink("/dev/null", null_link);
+  fs::create_directory(path("folder.hmap"));
+  for (const std::string& out : {fifo, null_link, path("folder.hmap")}) {
+    expect_refusal({"map", path("good.xyz"), "--poses", path("good.txt"), "--out", out}, {out, "not a regular file"});
+  }
+  struct stat st {};
+  ASSERT_EQ(::stat(fifo.c_str(), &st), 0);
+  EXPECT_TRUE(S_ISFIFO(st.st_mode));
+  EXPECT_TRUE(fs::is_symlink(null_link));
+  ASSERT_EQ(::stat(null_link.c_str(), &st), 0);
+  EXPECT_TRUE(S_ISCHR(st.st_mode));
+}
+
+TEST_F(CliErrorsTest, AMissingOutputFolderIsNamedBeforeTheWork) {
+  // Before: every scan was mapped, then the save failed naming a hidden temporary file.
+  expect_refusal({"map", path("good.xyz"), "--poses", path("good.txt"), "--out", path("nodir/m.hmap")},
+                 {"nodir/m.hmap", "output folder", "does not exist"});
+  std::string out;
+  (void)test::run_hmap({"map", path("good.xyz"), "--poses", path("good.txt"), "--out", path("nodir/m.hmap")}, dir_ / "log", out);
+  EXPECT_EQ(out.find(".tmp."), std::string::npos) << out;
+  // Every output of export is checked before the map is read (the map here does not even exist).
+  expect_refusal({"export", path("absent.hmap"), "--ply", path("nodir/m.ply")}, {"nodir/m.ply", "does not exist"});
+  expect_refusal({"export", path("absent.hmap"), "--pgm", path("nodir/m")}, {"nodir/m.pgm", "does not exist"});
+}
+
+TEST_F(CliErrorsTest, InputsThatAreNotRegularFilesAreRefusedWithoutBlocking) {
+  const std::string fifo = path("scan.xyz");
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0644), 0);
+  // No writer ever opens the FIFO: a plain open() for reading would wait forever.
+  expect_refusal({"map", fifo, "--poses", path("good.txt"), "--out", path("m.hmap")}, {fifo, "pipe or FIFO", "not a regular file"});
+  expect_refusal({"map", path("good.xyz"), "--poses", "/dev/zero", "--out", path("m.hmap")},
+                 {"/dev/zero", "character device", "not a regular file"});
+  expect_refusal({"info", fifo}, {fifo, "not a regular file"});
+  // A folder as the parameter file: one line naming it, not libstdc++'s "basic_filebuf" message.
+  fs::create_directory(path("conf"));
+  expect_refusal({"map", path("good.xyz"), "--poses", path("good.txt"), "--out", path("m.hmap"), "--config", path("conf")},
+                 {path("conf"), "a folder, not a regular file"});
+  expect_refusal({"map", path("good.xyz"), "--poses", path("good.txt"), "--out", path("m.hmap"), "--config",
+                  write("twice.yaml", "map:\n  cell_size: 0.2\nmap.cell_size: 0.3\n")},
+                 {"twice.yaml", "line 3", "'map.cell_size' is given twice (first on line 2)"});
+}
+
+TEST_F(CliErrorsTest, TextThatIsNotACloudIsRefused) {
+  // A pose file as a scan: its rows read as points (1, 0, 0), all within min_range; this saved an
+  // empty map with exit 0.
+  expect_refusal({"map", path("good.txt"), "--poses", path("good.txt"), "--out", path("m.hmap")},
+                 {"no point of the 1 read from 1 scans was kept", "1 out of the 1.2-25 m range"});
+  EXPECT_FALSE(fs::exists(path("m.hmap")));
+  expect_refusal({"map", write("k.txt", "fx fy cx cy\n525 525 319.5 239.5\n"), "--poses", path("good.txt"), "--out", path("m.hmap")},
+                 {"k.txt", "line 1", "must name the columns x, y and z"});
+}
+
+TEST_F(CliErrorsTest, ParametersAndFlagsBeyondTheirRangesAreRefusedByName) {
+  const std::vector<std::string> map = {"map", path("good.xyz"), "--poses", path("good.txt"), "--out", path("m.hmap")};
+  const auto with = [&](std::vector<std::string> args, std::vector<std::string> extra) {
+    args.insert(args.end(), extra.begin(), extra.end());
+    return args;
+  };
+  expect_refusal(with(map, {"--set", "ground.iterations=2147483647"}), {"ground.iterations = 2147483647", "[0, 100000]"});
+  expect_refusal(with(map, {"--set", "slam.coarse_translation=1000000"}), {"slam.coarse_translation", "[0, 20] m"});
+  expect_refusal(with(map, {"--set", "slam.coarse_rotation=1e12"}), {"slam.coarse_rotation", "[0, 3.14"});
+  expect_refusal(with(map, {"--scans", "-1"}), {"--scans: must be a count (0, 1, 2, ...), got '-1'"});
+}
+
+TEST_F(CliErrorsTest, LoopsAndAllocationsSizedByAMapAreBounded) {
+  // A valid map (the library writes it, checksum included) with one HVoxel at 3e38 m and one
+  // 100 km tall: `z += step` never ended on the first, and the second asked for gigabytes.
+  HMap far(Params{});
+  far.column_for_update(CellKey{0, 0}).push_back(HVoxel{3e38F, 3e38F, 10.0F, 1.0F});
+  save_hmap(path("far.hmap"), far);
+  expect_refusal({"export", path("far.hmap"), "--bt", path("far.bt")}, {"far.bt", "beyond OctoMap's key range", "nothing written"});
+  EXPECT_FALSE(fs::exists(path("far.bt")));
+  HMap tall(Params{});
+  tall.column_for_update(CellKey{0, 0}).push_back(HVoxel{0.0F, 1e5F, 10.0F, 1.0F});
+  save_hmap(path("tall.hmap"), tall);
+  expect_refusal({"--max-memory", "64", "export", path("tall.hmap"), "--ply", path("tall.ply"), "--points", "--z-step", "0.001"},
+                 {"points recovered every 0.001 m", "memory budget of 64 MiB"});
+  expect_refusal({"export", path("tall.hmap"), "--ply", path("tall.ply"), "--points", "--z-step", "1e-6"},
+                 {"--z-step", "[0.001, 100]"});
+  // 100 km is beyond OctoMap's ±32768 leaves of 0.25 m (8192 m): refused, not dropped and counted.
+  expect_refusal({"export", path("tall.hmap"), "--bt", path("tall.bt")}, {"1 HVoxels lie beyond OctoMap's key range (+-8192 m"});
+  expect_refusal({"render", path("tall.hmap"), "--view", "oblique", "--z-low", "1e17", "--out", path("t.png")},
+                 {"--z-low", "[-100000, 100000]"});
 }
 
 }  // namespace

@@ -129,6 +129,9 @@ TEST(NumbersTest, AbsurdParametersAreRefusedByName) {
   p.map.max_range = 1e9;
   message = error_of([&] { validate(p); });
   EXPECT_NE(message.find("map.max_range"), std::string::npos) << message;
+  EXPECT_NE(message.find("(0, 10000] m"), std::string::npos) << message;  // its range first (issue 14)
+  p.map.max_range = 1000.0;  // in its range, but 4000 cells of 0.25 m: beyond the scan window
+  message = error_of([&] { validate(p); });
   EXPECT_NE(message.find("2048"), std::string::npos) << message;
   p = outdoor_preset();
   p.map.cell_size = std::nan("");

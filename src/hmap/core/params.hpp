@@ -126,6 +126,21 @@ struct Params {
 /// The preset called `name` ("indoor" or "outdoor"); throws hmap::Error for any other name.
 [[nodiscard]] Params preset(std::string_view name);
 
+/// The values a parameter may take: an interval, each end closed or open. Every parameter has
+/// finite ends, so that nothing sized or looped from a parameter is unbounded.
+struct ParamRange {
+  double min = 0.0;
+  double max = 0.0;
+  bool min_open = false;  ///< min itself is excluded: (min, ...
+  bool max_open = false;  ///< max itself is excluded: ..., max)
+
+  [[nodiscard]] bool contains(double v) const {
+    return (min_open ? v > min : v >= min) && (max_open ? v < max : v <= max);  // false for NaN
+  }
+  /// "[0.001, 100]", "(0, 0.5)".
+  [[nodiscard]] std::string text() const;
+};
+
 /// One named parameter: a scalar field of Params, seen as a double.
 struct ParamRef {
   std::string name;         ///< "map.cell_size"
@@ -133,13 +148,15 @@ struct ParamRef {
   std::string description;  ///< one line
   std::function<double()> get;
   std::function<void(double)> set;  ///< rounds for integer fields
+  ParamRange range;         ///< enforced by validate()
 };
 
 /// Every scalar parameter of `params` by its dotted name (enums as their integer value).
 [[nodiscard]] std::vector<ParamRef> param_refs(Params& params);
 
-/// Throws hmap::Error naming the first parameter that is out of its domain (negative cell size,
-/// min_range >= max_range, a scan window too large for memory, ...).
+/// Throws hmap::Error naming the first parameter that is out of its range (ParamRef::range: the
+/// message gives the parameter, its value and the range), or that breaks a rule between
+/// parameters (min_range >= max_range, a scan window too large for memory, ...).
 void validate(const Params& params);
 
 }  // namespace hmap

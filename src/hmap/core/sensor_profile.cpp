@@ -5,6 +5,8 @@
 #include <cstdio>
 #include <numbers>
 
+#include "hmap/core/format.hpp"
+
 namespace hmap {
 
 SensorProfile profile_scan(std::span<const Point3f> points_sensor) {
@@ -72,8 +74,7 @@ std::vector<ChosenDefault> adapt_to_sensor(Params& p, const Params& preset_param
   if (sensor.rings > 0 && p.map.point_distance_threshold == preset_params.map.point_distance_threshold) {
     const double gap = sensor.ring_spacing * p.map.max_range;
     const double value = std::clamp(gap, preset_params.map.point_distance_threshold, 1.0);
-    char reason[160];
-    std::snprintf(reason, sizeof reason, "%d rings %.2f deg apart: %.2f m between rings at the %.0f m range limit",
+    const std::string reason = format("%d rings %.2f deg apart: %.2f m between rings at the %.0f m range limit",
                   sensor.rings, sensor.ring_spacing * 180.0 / std::numbers::pi, gap, p.map.max_range);
     const double rounded = std::round(value * 100.0) / 100.0;
     if (rounded == p.map.point_distance_threshold) return chosen;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <optional>
 #include <random>
 #include <string>
 #include <unordered_set>
@@ -14,6 +15,7 @@
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 #include <nanoflann.hpp>
 
+#include "hmap/core/checked.hpp"
 #include "hmap/core/error.hpp"
 
 namespace hmap {
@@ -305,7 +307,10 @@ class PatchExplorer {
         if ((xy - hint.head<2>()).norm() > radius) return;
         for (const HVoxel& v : column.hvoxels()) {
           if (v.z_max > hint.z()) continue;
-          Bin& bin = bins[static_cast<long long>(std::floor(v.z_max / bin_size))];
+          // Checked: an HVoxel at 3e38 m, or ground.elevation_threshold = 0, made the cast undefined.
+          const std::optional<long long> index = floor_to<long long>(v.z_max / bin_size);
+          if (!index) continue;
+          Bin& bin = bins[*index];
           ++bin.count;
           bin.sum += v.z_max;
           if (bin.cells.empty() || bin.cells.back() != xy) bin.cells.push_back(xy);

@@ -97,7 +97,37 @@ void sync_directory(const std::filesystem::path& dir) {
   ::close(fd);
 }
 
+/// What a file that is not a regular one is, for messages.
+std::string not_regular(mode_t mode) {
+  const char* what = S_ISDIR(mode)    ? "a folder"
+                     : S_ISCHR(mode)  ? "a character device"
+                     : S_ISBLK(mode)  ? "a block device"
+                     : S_ISFIFO(mode) ? "a FIFO"
+                     : S_ISSOCK(mode) ? "a socket"
+                                      : "not a regular file";
+  return std::string("is ") + what + ", not a regular file: refusing to replace it";
+}
+
 }  // namespace
+
+void check_output_file(const std::filesystem::path& path) {
+  if (path.filename().empty()) throw Error(path.string() + ": not a file name");
+  struct stat st {};
+  if (::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode)) throw Error(path.string() + ": " + not_regular(st.st_mode));
+  check_output_folder(path.parent_path().empty() ? std::filesystem::path(".") : path.parent_path(), path);
+}
+
+void check_output_folder(const std::filesystem::path& dir, const std::filesystem::path& for_path) {
+  const std::string name = (for_path.empty() ? dir : for_path).string();
+  struct stat st {};
+  if (::stat(dir.c_str(), &st) != 0) {
+    throw Error(name + ": the output folder " + dir.string() + " does not exist (" + std::strerror(errno) + ")");
+  }
+  if (!S_ISDIR(st.st_mode)) throw Error(name + ": " + dir.string() + " is not a folder");
+  if (::access(dir.c_str(), W_OK | X_OK) != 0) {
+    throw Error(name + ": cannot write in the output folder " + dir.string() + " (" + std::strerror(errno) + ")");
+  }
+}
 
 void write_file_atomic(const std::filesystem::path& path, const std::function<void(std::ostream&)>& writer) {
   if (path.filename().empty()) throw Error(path.string() + ": not a file name");
@@ -106,6 +136,9 @@ void write_file_atomic(const std::filesystem::path& path, const std::function<vo
   // New files get 0666 minus the umask, as with std::ofstream; a replaced file keeps its mode.
   struct stat existing {};
   const bool replacing = ::stat(path.c_str(), &existing) == 0;
+  // rename() would replace a device, a FIFO or a socket with a regular file (`--out /dev/null`
+  // as root replaced the device node).
+  if (replacing && !S_ISREG(existing.st_mode)) throw Error(path.string() + ": " + not_regular(existing.st_mode));
   const int fd = ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
   if (fd < 0) fail(path, "cannot create temporary file " + temporary.string(), errno);
   if (replacing) ::fchmod(fd, existing.st_mode & 07777);
@@ -120,12 +153,15 @@ void write_file_atomic(const std::filesystem::path& path, const std::function<vo
   try {
     FdStreambuf buffer(fd);
     std::ostream out(&buffer);
+    // A writer that gives up (OctoMap's "could not serialise") says why when a write failed: a
+    // full disk reads "No space left on device".
+    const auto cause = [&buffer] { return buffer.error() != 0 ? std::string(": ") + std::strerror(buffer.error()) : std::string(); };
     try {
       writer(out);
     } catch (const Error& e) {
-      throw Error(path.string() + ": " + e.what());
+      throw Error(path.string() + ": " + e.what() + cause());
     } catch (const std::exception& e) {
-      throw Error(path.string() + ": cannot write: " + e.what());
+      throw Error(path.string() + ": cannot write: " + e.what() + cause());
     }
     out.flush();
     if (!out) fail(path, "cannot write", buffer.error() != 0 ? buffer.error() : EIO);
@@ -138,6 +174,33 @@ void write_file_atomic(const std::filesystem::path& path, const std::function<vo
     throw;
   }
   sync_directory(path.parent_path());
+}
+
+std::filesystem::path make_staging_folder(const std::filesystem::path& target) {
+  const std::filesystem::path name = target.filename().empty() ? target.parent_path() : target;
+  for (int attempt = 0; attempt < 8; ++attempt) {
+    const std::filesystem::path staging = temporary_path_for(name);
+    if (::mkdir(staging.c_str(), 0777) == 0) return staging;
+    if (errno != EEXIST) fail(name, "cannot create the staging folder " + staging.string(), errno);
+  }
+  fail(name, "cannot create a staging folder", EEXIST);
+}
+
+void replace_folder_atomic(const std::filesystem::path& staging, const std::filesystem::path& target_in) {
+  const std::filesystem::path target = target_in.filename().empty() ? target_in.parent_path() : target_in;
+  struct stat st {};
+  const bool exists = ::lstat(target.c_str(), &st) == 0;
+  if (exists && !S_ISDIR(st.st_mode)) throw Error(target.string() + ": " + not_regular(st.st_mode));
+  if (!exists) {
+    if (::rename(staging.c_str(), target.c_str()) != 0) fail(target, "cannot rename the new folder into place", errno);
+  } else {
+    if (::renameat2(AT_FDCWD, staging.c_str(), AT_FDCWD, target.c_str(), RENAME_EXCHANGE) != 0) {
+      fail(target, "cannot exchange the new folder with the old one", errno);
+    }
+    std::error_code ignored;  // the old set, now at `staging`: a failure here leaves it hidden, not wrong
+    std::filesystem::remove_all(staging, ignored);
+  }
+  sync_directory(target.parent_path());
 }
 
 void write_file_atomic(const std::filesystem::path& path, std::string_view bytes) {

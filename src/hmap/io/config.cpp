@@ -4,9 +4,11 @@
 
 #include <charconv>
 #include <cmath>
+#include <map>
 #include <sstream>
 
 #include "hmap/core/error.hpp"
+#include "hmap/io/read_support.hpp"
 
 namespace hmap {
 
@@ -36,17 +38,25 @@ std::string known_names(const std::vector<ParamRef>& refs) {
 /// a recursive alias (`a: &x {b: *x}`, a map that holds itself) from recursing forever.
 constexpr int kMaxNesting = 4;
 
+/// Lines where each parameter (or section) was given, by dotted name.
+using SeenNames = std::map<std::string, int>;
+
 void apply_node(const std::filesystem::path& path, const std::string& prefix, const YAML::Node& node,
-                std::vector<ParamRef>& refs, int depth) {
+                std::vector<ParamRef>& refs, int depth, SeenNames& seen) {
   for (const auto& entry : node) {
     const std::string key = entry.first.as<std::string>();
     const std::string name = prefix.empty() ? key : prefix + "." + key;
-    const std::string line = "line " + std::to_string(entry.first.Mark().line + 1);
+    const int line_number = entry.first.Mark().line + 1;
+    const std::string line = "line " + std::to_string(line_number);
+    // yaml-cpp keeps the last of two equal keys: a silent choice between two values.
+    if (const auto [it, first] = seen.emplace(name, line_number); !first) {
+      throw InputError(path.string(), line, "'" + name + "' is given twice (first on line " + std::to_string(it->second) + ")");
+    }
     if (entry.second.IsMap()) {
       if (depth + 1 >= kMaxNesting) {
         throw InputError(path.string(), line, "'" + name + "' nests sections too deep (parameters are 'section.name')");
       }
-      apply_node(path, name, entry.second, refs, depth + 1);
+      apply_node(path, name, entry.second, refs, depth + 1, seen);
       continue;
     }
     if (name == "preset") continue;  // handled first
@@ -66,10 +76,11 @@ void apply_node(const std::filesystem::path& path, const std::string& prefix, co
 
 void apply_config_file(const std::filesystem::path& path, Params& params) {
   YAML::Node root;
+  // Read like every input (regular files only, bounded; a folder gives "is a folder", not the
+  // standard library's message), then parsed. A parameter file is small: 1 MiB is plenty.
+  const std::string text = detail::read_file_bytes(path, std::size_t{1} << 20);
   try {
-    root = YAML::LoadFile(path.string());
-  } catch (const YAML::BadFile&) {
-    throw InputError(path.string(), "", "cannot open the parameter file");
+    root = YAML::Load(text);
   } catch (const YAML::Exception& e) {
     throw InputError(path.string(), "line " + std::to_string(e.mark.line + 1), "YAML syntax error: " + e.msg);
   }
@@ -78,7 +89,8 @@ void apply_config_file(const std::filesystem::path& path, Params& params) {
   try {
     if (const auto p = root["preset"]; p && p.IsScalar()) params = preset(p.Scalar());
     auto refs = param_refs(params);
-    apply_node(path, "", root, refs, 0);
+    SeenNames seen;
+    apply_node(path, "", root, refs, 0, seen);
   } catch (const InputError&) {
     throw;
   } catch (const YAML::Exception& e) {
@@ -109,6 +121,17 @@ void apply_override(std::string_view assignment, Params& params) {
   ref->set(value);
 }
 
+Params resolve_params(const ParamSources& sources) {
+  Params p = preset(sources.preset);
+  if (!sources.config.empty()) apply_config_file(sources.config, p);
+  for (const auto& o : sources.overrides) apply_override(o, p);
+  if (sources.cell_size) p.map.cell_size = *sources.cell_size;
+  if (sources.min_range) p.map.min_range = *sources.min_range;
+  if (sources.max_range) p.map.max_range = *sources.max_range;
+  validate(p);
+  return p;
+}
+
 std::string params_to_yaml(const Params& params) {
   Params copy = params;
   std::ostringstream out;
@@ -116,7 +139,7 @@ std::string params_to_yaml(const Params& params) {
     char number[32];
     const auto end = std::to_chars(number, number + sizeof number, r.get()).ptr;  // shortest exact
     out << r.name << ": " << std::string_view(number, static_cast<std::size_t>(end - number))
-        << "  # [" << r.unit << "] " << r.description << "\n";
+        << "  # [" << r.unit << "] " << r.description << "; range " << r.range.text() << "\n";
   }
   return out.str();
 }

@@ -8,7 +8,10 @@
 //   preset: indoor               # optional: start from a preset, then apply the rest
 
 #include <filesystem>
+#include <optional>
+#include <string>
 #include <string_view>
+#include <vector>
 
 #include "hmap/core/params.hpp"
 
@@ -23,7 +26,23 @@ void apply_config_file(const std::filesystem::path& path, Params& params);
 /// the parameter when the name is unknown or the value is not a number.
 void apply_override(std::string_view assignment, Params& params);
 
-/// Writes every parameter as flat YAML, `name: value  # [unit] description` per line.
+/// Where the parameters of a run come from, applied in this order: the preset, the YAML file,
+/// the `name=value` overrides, then the named values (the CLI's --cell, --min-range, --max-range).
+struct ParamSources {
+  std::string preset = "outdoor";
+  std::filesystem::path config;         ///< empty: none
+  std::vector<std::string> overrides;   ///< "name=value"
+  std::optional<double> cell_size;      ///< map.cell_size [m]
+  std::optional<double> min_range;      ///< map.min_range [m]
+  std::optional<double> max_range;      ///< map.max_range [m]
+};
+
+/// The parameters of `sources`, validated: hmap::Error naming the parameter, its value and its
+/// range (or the file and line) for anything out of place.
+[[nodiscard]] Params resolve_params(const ParamSources& sources);
+
+/// Writes every parameter as flat YAML, `name: value  # [unit] description; range [lo, hi]` per
+/// line; applying it to any Params gives these values back exactly.
 [[nodiscard]] std::string params_to_yaml(const Params& params);
 
 }  // namespace hmap

@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "hmap/core/error.hpp"
+#include "hmap/io/read_support.hpp"
 #include "hmap/io/atomic_file.hpp"
 
 namespace hmap {
@@ -247,12 +248,19 @@ struct FdClose {
 
 std::vector<unsigned char> read_whole_file(const std::filesystem::path& path) {
   const std::string name = path.string();
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  // O_NONBLOCK: a FIFO would otherwise block in open() until a writer came; it is refused below.
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK);
   if (fd < 0) throw InputError(name, "", std::string("cannot open: ") + std::strerror(errno));
   const FdClose closer{fd};
   struct stat st {};
   if (::fstat(fd, &st) != 0) throw InputError(name, "", std::string("cannot stat: ") + std::strerror(errno));
-  if (!S_ISREG(st.st_mode)) throw InputError(name, "", "not a regular file");
+  if (!S_ISREG(st.st_mode)) {
+    throw InputError(name, "", "is " + std::string(detail::file_kind(st.st_mode)) + ", not a regular file");
+  }
+  if (static_cast<std::uintmax_t>(st.st_size) > detail::kMaxInputBytes) {
+    throw InputError(name, "", std::to_string(st.st_size) + " bytes, more than the " +
+                                   std::to_string(detail::kMaxInputBytes >> 20) + " MiB an input may hold");
+  }
   std::vector<unsigned char> bytes(static_cast<std::size_t>(st.st_size));  // a real size, not a claim
   std::size_t got = 0;
   while (got < bytes.size()) {

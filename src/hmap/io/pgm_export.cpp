@@ -23,12 +23,17 @@ std::string shortest(double v) {
 
 }  // namespace
 
+std::filesystem::path pgm_stem(const std::filesystem::path& stem_in) {
+  std::filesystem::path stem = stem_in;
+  if (stem.extension() == ".pgm" || stem.extension() == ".yaml") stem.replace_extension();
+  return stem;
+}
+
 void write_pgm_map(const std::filesystem::path& stem_in, const OccupancyGrid& grid, const PgmExportParams& params) {
   if (!(params.free_thresh > 0.0 && params.free_thresh < params.occupied_thresh && params.occupied_thresh < 1.0)) {
     throw Error("PGM export: thresholds must satisfy 0 < free_thresh < occupied_thresh < 1");
   }
-  std::filesystem::path stem = stem_in;
-  if (stem.extension() == ".pgm" || stem.extension() == ".yaml") stem.replace_extension();
+  const std::filesystem::path stem = pgm_stem(stem_in);
   long i_min = LONG_MAX, i_max = LONG_MIN, j_min = LONG_MAX, j_max = LONG_MIN;
   grid.for_each_cell([&](const CellKey& k, float) {
     i_min = std::min<long>(i_min, k.i);

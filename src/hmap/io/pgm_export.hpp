@@ -27,4 +27,7 @@ void write_pgm_map(const std::filesystem::path& stem, const OccupancyGrid& grid,
 /// so unknown cells are written lethal (the YAML says so). Throws hmap::Error for empty layers.
 void write_costmap_pgm(const std::filesystem::path& stem, const TraversabilityLayers& layers);
 
+/// `stem` without a trailing .pgm or .yaml: the name write_pgm_map gives its two files.
+[[nodiscard]] std::filesystem::path pgm_stem(const std::filesystem::path& stem);
+
 }  // namespace hmap

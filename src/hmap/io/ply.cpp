@@ -58,35 +58,54 @@ std::optional<ScalarType> ply_scalar_type(std::string_view name) {
   return std::nullopt;
 }
 
-/// Whitespace-separated tokens of an ascii PLY body, with the line each is on.
+/// The tokens of an ascii PLY body, a record per line: tokens of one record never cross a line
+/// break, so that a vertex line missing a value is an error on that line instead of shifting
+/// every later vertex by one value.
 class TokenCursor {
  public:
   TokenCursor(std::string_view text, std::size_t line) : text_(text), line_(line), token_line_(line) {}
 
-  bool next(std::string_view& token) {
-    while (pos_ < text_.size()) {
-      const char c = text_[pos_];
-      if (c == '\n') {
-        ++line_;
-      } else if (c != ' ' && c != '\t' && c != '\r') {
-        break;
-      }
+  /// Moves to the first token of the next record (blank lines between records are skipped).
+  void start_record() {
+    while (pos_ < text_.size() && is_blank(text_[pos_])) {
+      if (text_[pos_] == '\n') ++line_;
       ++pos_;
     }
-    if (pos_ >= text_.size()) return false;
-    const std::size_t start = pos_;
-    while (pos_ < text_.size() && text_[pos_] != ' ' && text_[pos_] != '\t' && text_[pos_] != '\r' &&
-           text_[pos_] != '\n') {
-      ++pos_;
-    }
-    token = text_.substr(start, pos_ - start);
     token_line_ = line_;
+  }
+  /// The next token of the current line; false at the line's end or the text's.
+  bool next(std::string_view& token) {
+    while (pos_ < text_.size() && is_blank(text_[pos_]) && text_[pos_] != '\n') ++pos_;
+    token_line_ = line_;
+    if (pos_ >= text_.size() || text_[pos_] == '\n') return false;
+    const std::size_t start = pos_;
+    while (pos_ < text_.size() && !is_blank(text_[pos_])) ++pos_;
+    token = text_.substr(start, pos_ - start);
+    return true;
+  }
+  /// True when the current line holds nothing more; then moves past it.
+  bool end_record() {
+    while (pos_ < text_.size() && is_blank(text_[pos_]) && text_[pos_] != '\n') ++pos_;
+    if (pos_ < text_.size() && text_[pos_] != '\n') return false;
+    if (pos_ < text_.size()) {
+      ++pos_;
+      ++line_;
+    }
+    return true;
+  }
+  /// True when nothing but blanks is left: the file ended, rather than the line.
+  [[nodiscard]] bool at_end() const {
+    for (std::size_t i = pos_; i < text_.size(); ++i) {
+      if (!is_blank(text_[i])) return false;
+    }
     return true;
   }
   /// The line of the token last returned: where a bad token is, or where the text ran out.
   [[nodiscard]] std::size_t line() const { return token_line_; }
 
  private:
+  static bool is_blank(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\n'; }
+
   std::string_view text_;
   std::size_t pos_ = 0;
   std::size_t line_;
@@ -311,11 +330,23 @@ class PlyReader {
   std::string_view next_token(TokenCursor& tokens, const PlyElement& element, std::uint64_t record) const {
     std::string_view token;
     if (!tokens.next(token)) {
-      fail(line_position(tokens.line()), "file ends inside element " + detail::quoted(element.name) +
-                                             " record " + std::to_string(record) + " of " +
-                                             std::to_string(element.count));
+      if (tokens.at_end()) {
+        fail(line_position(tokens.line()), "file ends inside element " + detail::quoted(element.name) +
+                                               " record " + std::to_string(record) + " of " +
+                                               std::to_string(element.count));
+      }
+      fail(line_position(tokens.line()), "too few values for element " + detail::quoted(element.name) + " record " +
+                                             std::to_string(record) + " (" + std::to_string(element.properties.size()) +
+                                             " properties, a record per line)");
     }
     return token;
+  }
+
+  void end_record(TokenCursor& tokens, const PlyElement& element, std::uint64_t record) const {
+    if (tokens.end_record()) return;
+    fail(line_position(tokens.line()), "more values than element " + detail::quoted(element.name) + " record " +
+                                           std::to_string(record) + " has properties (" +
+                                           std::to_string(element.properties.size()) + ", a record per line)");
   }
 
   std::uint64_t list_length(TokenCursor& tokens, const PlyElement& element, std::uint64_t record) const {
@@ -331,10 +362,12 @@ class PlyReader {
   void skip_ascii(const PlyElement& element, TokenCursor& tokens) const {
     if (element.properties.empty()) return;  // records of nothing: however many, no tokens
     for (std::uint64_t r = 0; r < element.count; ++r) {
+      tokens.start_record();
       for (const PlyProperty& property : element.properties) {
         const std::uint64_t items = property.is_list ? list_length(tokens, element, r) : 1;
         for (std::uint64_t i = 0; i < items; ++i) next_token(tokens, element, r);
       }
+      end_record(tokens, element, r);
     }
   }
 
@@ -351,6 +384,7 @@ class PlyReader {
     cloud.reserve(static_cast<std::size_t>(vertex.count));
     for (std::uint64_t r = 0; r < vertex.count; ++r) {
       std::array<double, 3> v{};
+      tokens.start_record();
       for (std::size_t p = 0; p < vertex.properties.size(); ++p) {
         const PlyProperty& property = vertex.properties[p];
         if (property.is_list) {
@@ -365,6 +399,7 @@ class PlyReader {
           }
         }
       }
+      end_record(tokens, vertex, r);
       detail::append_if_finite(cloud, v[0], v[1], v[2], stats.non_finite_dropped);
     }
   }

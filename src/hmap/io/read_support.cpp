@@ -4,6 +4,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <charconv>
 #include <cstring>
@@ -26,35 +27,61 @@ class FdCloser {
   int fd_;
 };
 
-[[noreturn]] void throw_cannot_open(const std::filesystem::path& path, int error) {
-  throw InputError(path.string(), "", std::string("cannot open: ") + std::strerror(error));
-}
-
 }  // namespace
 
-std::string read_file_bytes(const std::filesystem::path& path) {
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) throw_cannot_open(path, errno);
+std::string_view file_kind(unsigned mode) {
+  if (S_ISREG(mode)) return "a regular file";
+  if (S_ISDIR(mode)) return "a folder";
+  if (S_ISFIFO(mode)) return "a pipe or FIFO";
+  if (S_ISCHR(mode)) return "a character device";
+  if (S_ISBLK(mode)) return "a block device";
+  if (S_ISSOCK(mode)) return "a socket";
+  return "not a regular file";
+}
+
+std::string read_file_bytes(const std::filesystem::path& path, std::size_t max_bytes) {
+  const bool standard_input = path == "-";
+  const std::string name = standard_input ? std::string("standard input") : path.string();
+  // O_NONBLOCK: opening a FIFO for reading otherwise waits for a writer, forever. It is refused
+  // below by its type; regular files ignore the flag.
+  const int fd = standard_input ? ::dup(STDIN_FILENO) : ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK);
+  if (fd < 0) throw InputError(name, "", std::string("cannot open: ") + std::strerror(errno));
   const FdCloser closer(fd);
 
   struct stat info {};
-  if (::fstat(fd, &info) != 0) throw_cannot_open(path, errno);
-  if (S_ISDIR(info.st_mode)) throw_cannot_open(path, EISDIR);
-
-  // A regular file is read in one go; a pipe or device grows the buffer as data arrives.
-  std::string bytes;
+  if (::fstat(fd, &info) != 0) throw InputError(name, "", std::string("cannot open: ") + std::strerror(errno));
   const bool regular = S_ISREG(info.st_mode);
+  // Regular files only: a device (/dev/zero) or a pipe (`<(yes ...)`) has no size to check and
+  // may never end. Standard input ("-") may be a pipe, read up to the limit.
+  if (!regular && !(standard_input && !S_ISDIR(info.st_mode))) {
+    throw InputError(name, "", "cannot open: " + std::string(file_kind(info.st_mode)) +
+                                   ", not a regular file");
+  }
+  if (regular && static_cast<std::uintmax_t>(info.st_size) > max_bytes) {
+    throw InputError(name, "", std::to_string(info.st_size) + " bytes, more than the " + std::to_string(max_bytes >> 20) +
+                                   " MiB an input may hold");
+  }
+  if (standard_input) {
+    const int flags = ::fcntl(fd, F_GETFL);
+    if (flags >= 0) ::fcntl(fd, F_SETFL, flags & ~O_NONBLOCK);
+  }
+  // A regular file is read in one go (its real size, not a claim); standard input grows the
+  // buffer as data arrives, up to the limit.
+  std::string bytes;
   bytes.resize(regular ? static_cast<std::size_t>(info.st_size) : std::size_t{1} << 16);
   std::size_t filled = 0;
   for (;;) {
     if (filled == bytes.size()) {
       if (regular) break;
-      bytes.resize(bytes.size() * 2);
+      if (bytes.size() > max_bytes) {
+        throw InputError(name, "", "more than the " + std::to_string(max_bytes >> 20) + " MiB an input may hold");
+      }
+      bytes.resize(std::min(bytes.size() * 2, max_bytes + 1));
     }
     const ssize_t n = ::read(fd, bytes.data() + filled, bytes.size() - filled);
     if (n < 0) {
       if (errno == EINTR) continue;
-      throw_cannot_open(path, errno);
+      throw InputError(name, "", std::string("cannot read: ") + std::strerror(errno));
     }
     if (n == 0) break;
     filled += static_cast<std::size_t>(n);

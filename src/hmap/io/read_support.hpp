@@ -16,9 +16,17 @@
 
 namespace hmap::detail {
 
-/// The whole file, read with one read() into one buffer sized by fstat.
-/// Throws InputError(path, "", "cannot open: <strerror>") when the file cannot be opened or read.
-[[nodiscard]] std::string read_file_bytes(const std::filesystem::path& path);
+/// Inputs hold at most this much (the readers keep a file whole in memory).
+inline constexpr std::size_t kMaxInputBytes = std::size_t{4} << 30;
+
+/// What a stat() mode is, for messages: "a regular file", "a pipe or FIFO", "a character device".
+[[nodiscard]] std::string_view file_kind(unsigned mode);
+
+/// The whole file, read with one read() into one buffer sized by fstat; "-" is standard input.
+/// Only regular files (and standard input) are read: a device, FIFO, pipe, socket or folder is
+/// refused, and a FIFO never blocks in open(). Throws InputError naming the file when it cannot be
+/// opened or read, is not a regular file, or holds more than `max_bytes`.
+[[nodiscard]] std::string read_file_bytes(const std::filesystem::path& path, std::size_t max_bytes = kMaxInputBytes);
 
 /// Parses the whole token as a decimal number ("1.5", "-2e3", "+4", "nan", "inf").
 /// Returns false for anything else, including an empty token or trailing characters.

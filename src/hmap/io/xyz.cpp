@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <optional>
 #include <cctype>
 #include <string>
 #include <string_view>
@@ -17,21 +18,23 @@ namespace {
 using detail::line_position;
 
 bool is_space(char c) { return c == ' ' || c == '\t'; }
-bool is_separator(char c) { return c == ',' || c == ';'; }
 
-/// Splits a line into fields: whitespace, optionally around one ',' or ';', separates two fields;
-/// two commas in a row leave an empty field between them; a trailing separator is ignored.
+/// Splits a line into fields: whitespace, optionally around one separator, separates two
+/// fields; two separators in a row leave an empty field between them; a trailing separator is
+/// ignored. The separator is ';' on a line that holds one (the convention of decimal-comma
+/// locales: "1,5;2,5;3,5" is then three fields that are refused as numbers, not (1, 5, 2)), else ','.
 void split_fields(std::string_view line, std::vector<std::string_view>& fields) {
   fields.clear();
+  const char separator = line.find(';') != std::string_view::npos ? ';' : ',';
   const std::size_t n = line.size();
   std::size_t i = 0;
   while (i < n && is_space(line[i])) ++i;
   while (i < n) {
     const std::size_t start = i;
-    while (i < n && !is_space(line[i]) && !is_separator(line[i])) ++i;
+    while (i < n && !is_space(line[i]) && line[i] != separator) ++i;
     fields.push_back(line.substr(start, i - start));
     while (i < n && is_space(line[i])) ++i;
-    if (i < n && is_separator(line[i])) {
+    if (i < n && line[i] == separator) {
       ++i;
       while (i < n && is_space(line[i])) ++i;
     }
@@ -50,23 +53,43 @@ std::string column_name(std::string_view field) {
   return name;
 }
 
-bool starts_with_numbers(const std::vector<std::string_view>& fields) {
-  if (fields.size() < 3) return false;
-  for (std::size_t k = 0; k < 3; ++k) {
-    double value = 0.0;
-    if (!detail::parse_double(fields[k], value)) return false;
-  }
-  return true;
+bool all_numbers(const std::vector<std::string_view>& fields) {
+  double value = 0.0;
+  return std::all_of(fields.begin(), fields.end(), [&](std::string_view f) { return detail::parse_double(f, value); });
 }
 
-/// The columns of x, y, z named in a header, or 0, 1, 2 when it does not name all three.
-std::array<std::size_t, 3> columns_from_header(const std::vector<std::string_view>& fields) {
+/// A value that is not a number, said helpfully: "1,5" is a decimal comma.
+std::string not_a_number(std::string_view field) {
+  const bool decimal_comma = field.find(',') != std::string_view::npos;
+  return detail::quoted(field) + " is not a number" + (decimal_comma ? " (a decimal comma? write 1.5, not 1,5)" : "");
+}
+
+/// The columns of x, y, z named in a header; InputError when it does not name all three (the
+/// columns are not guessed).
+std::array<std::size_t, 3> columns_from_header(const std::vector<std::string_view>& fields, const std::string& source,
+                                               std::size_t line) {
   constexpr std::array<std::string_view, 3> kNames = {"x", "y", "z"};
   std::array<std::size_t, 3> columns{};
   for (std::size_t k = 0; k < 3; ++k) {
     const auto found = std::find_if(fields.begin(), fields.end(),
                                     [&](std::string_view f) { return column_name(f) == kNames[k]; });
-    if (found == fields.end()) return {0, 1, 2};
+    if (found == fields.end()) {
+      // "1,5;2,5;3,5" is no header but numbers with decimal commas: say so.
+      for (const auto f : fields) {
+        std::string dotted(f);
+        std::replace(dotted.begin(), dotted.end(), ',', '.');
+        double value = 0.0;
+        if (dotted != f && detail::parse_double(dotted, value)) throw InputError(source, line_position(line), not_a_number(f));
+      }
+      std::string names;
+      for (const auto f : fields) {
+        if (!names.empty()) names += ' ';  // appended piecewise: `"" + std::string` trips GCC 12's -Wrestrict
+        names.append(f);
+      }
+      throw InputError(source, line_position(line),
+                       "a header must name the columns x, y and z, found " + detail::quoted(names) +
+                           " (not a point cloud, or a line of fewer than 3 numbers)");
+    }
     columns[k] = static_cast<std::size_t>(found - fields.begin());
   }
   return columns;
@@ -86,7 +109,12 @@ PointCloud read_xyz(const std::filesystem::path& path, CloudReadStats* stats) {
   std::array<std::size_t, 3> columns = {0, 1, 2};
   std::size_t fields_needed = 3;
   bool first_content_line = true;
-  detail::LineReader lines(bytes);
+  std::optional<std::uint64_t> claimed_points;  // the count line of a .pts file
+  std::size_t claim_line = 0;
+  // A UTF-8 byte order mark (spreadsheet exports) is not part of the first column's name.
+  std::string_view text = bytes;
+  if (text.starts_with("\xEF\xBB\xBF")) text.remove_prefix(3);
+  detail::LineReader lines(text);
   std::vector<std::string_view> fields;
   std::string_view line;
   while (lines.next(line)) {
@@ -94,8 +122,14 @@ PointCloud read_xyz(const std::filesystem::path& path, CloudReadStats* stats) {
     if (fields.empty() || fields.front().starts_with('#')) continue;
     if (first_content_line) {
       first_content_line = false;
-      if (!starts_with_numbers(fields)) {
-        columns = columns_from_header(fields);
+      std::uint64_t count = 0;
+      if (fields.size() == 1 && detail::parse_uint(fields[0], count)) {  // .pts: the number of points
+        claimed_points = count;
+        claim_line = lines.line_number();
+        continue;
+      }
+      if (!all_numbers(fields)) {  // a header; a line of numbers is data, however many
+        columns = columns_from_header(fields, source, lines.line_number());
         fields_needed = *std::max_element(columns.begin(), columns.end()) + 1;
         continue;
       }
@@ -110,12 +144,16 @@ PointCloud read_xyz(const std::filesystem::path& path, CloudReadStats* stats) {
       const std::string_view field = fields[columns[k]];
       if (!detail::parse_double(field, v[k])) {
         throw InputError(source, line_position(lines.line_number()),
-                         field.empty() ? "empty value in column " + std::to_string(columns[k] + 1)
-                                       : detail::quoted(field) + " is not a number");
+                         field.empty() ? "empty value in column " + std::to_string(columns[k] + 1) : not_a_number(field));
       }
     }
     detail::append_if_finite(cloud, v[0], v[1], v[2], local.non_finite_dropped);
     ++local.points_read;
+  }
+  if (claimed_points && *claimed_points != local.points_read) {
+    throw InputError(source, line_position(claim_line),
+                     "the point count " + std::to_string(*claimed_points) + " does not match the " +
+                         std::to_string(local.points_read) + " points that follow");
   }
   if (stats != nullptr) *stats = local;
   return cloud;

@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "hmap/core/error.hpp"
+#include "hmap/core/format.hpp"
 
 namespace hmap {
 
@@ -67,14 +68,23 @@ MapStats HMap::stats() const {
   return s;
 }
 
-PointCloud recover_points(const HMap& map, double z_step) {
-  if (!(z_step > 0.0)) throw Error("recover_points: z_step must be > 0");
+PointCloud recover_points(const HMap& map, double z_step, const MemoryBudget& budget) {
+  if (!(z_step > 0.0) || !std::isfinite(z_step)) throw Error("recover_points: z_step must be a positive finite number");
+  // Samples z_min + k·z_step for k = 0..⌊h/z_step⌋, then z_max if it was missed: counted in a
+  // double first, so that neither the count nor the allocation can overflow.
+  double count = 0.0;
+  map.for_each_column([&](const CellKey&, const ColumnView& c) {
+    for (const HVoxel& v : c) count += std::floor(v.height() / z_step) + 2.0;
+  });
+  budget.require(count * static_cast<double>(sizeof(Point3f)),
+                 format("%.0f points recovered every %g m", count, z_step));
   PointCloud points;
+  points.reserve(static_cast<std::size_t>(count));
   map.for_each_column([&](const CellKey& key, const ColumnView& c) {
     const Eigen::Vector2d xy = map.cell_center(key);
     for (const HVoxel& v : c) {
       const double h = v.height();
-      const auto steps = static_cast<long>(std::floor(h / z_step));
+      const auto steps = static_cast<long>(std::floor(h / z_step));  // bounded by the count above
       for (long k = 0; k <= steps; ++k) {
         points.emplace_back(static_cast<float>(xy.x()), static_cast<float>(xy.y()),
                             static_cast<float>(v.z_min + static_cast<double>(k) * z_step));

@@ -8,6 +8,7 @@
 #include <memory>
 #include <optional>
 
+#include "hmap/core/budget.hpp"
 #include "hmap/core/params.hpp"
 #include "hmap/core/types.hpp"
 #include "hmap/maps/column.hpp"
@@ -109,6 +110,8 @@ class HMap {
 
 /// The occupied space as points: each HVoxel sampled at its cell centre from z_min to z_max
 /// every `z_step` metres (both ends included): the paper's height-upsampled point cloud.
-[[nodiscard]] PointCloud recover_points(const HMap& map, double z_step);
+/// The points are counted first: more than `budget` holds throws hmap::Error before any is made
+/// (a 1.4 kB map whose HVoxels span 100 km asked for gigabytes).
+[[nodiscard]] PointCloud recover_points(const HMap& map, double z_step, const MemoryBudget& budget = {});
 
 }  // namespace hmap

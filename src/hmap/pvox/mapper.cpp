@@ -3,15 +3,31 @@
 #include <cmath>
 
 #include "hmap/core/error.hpp"
+#include "hmap/core/format.hpp"
 
 namespace hmap::pvox {
 
+namespace {
+
+/// hmap::Error "pvox: NAME = V UNIT is out of its range [lo, hi]" unless lo <= v <= hi (NaN fails).
+void require_in(double v, double lo, double hi, const char* name, const char* unit) {
+  if (v >= lo && v <= hi) return;
+  throw Error(format("pvox: %s = %g%s%s is out of its range [%g, %g]", name, v, *unit ? " " : "", unit, lo, hi));
+}
+
+}  // namespace
+
 void PvoxParams::validate() const {
-  if (!(k_sigma > 0.0) || !std::isfinite(k_sigma)) throw Error("pvox: k_sigma must be positive");
-  if (!(fixed_edge >= 0.0) || !std::isfinite(fixed_edge)) throw Error("pvox: fixed_edge must not be negative");
-  if (!(insert.max_range > insert.min_range) || !(insert.min_range >= 0.0)) {
-    throw Error("pvox: need 0 <= min_range < max_range");
-  }
+  // Bounded so that what is sized from them stays bounded: an edge of 1e-300 m put every point
+  // beyond the key range (an empty map, exit 0), a range of 1e6 m made each ray 10^8 voxels.
+  require_in(k_sigma, 1e-3, 1000.0, "k_sigma", "");
+  if (fixed_edge != 0.0) require_in(fixed_edge, 1e-4, 100.0, "voxel edge", "m");
+  require_in(insert.min_range, 0.0, 1000.0, "min_range", "m");
+  require_in(insert.max_range, 0.0, 1000.0, "max_range", "m");
+  if (!(insert.max_range > insert.min_range)) throw Error("pvox: need 0 <= min_range < max_range");
+  require_in(filter.motion_variance, 0.0, 1e4, "motion variance", "m^2");
+  require_in(filter.initial_variance, 0.0, 1e4, "initial variance", "m^2");
+  require_in(filter.measurement_variance, 1e-12, 1e4, "measurement variance", "m^2");
   probability.validate();
 }
 
@@ -25,7 +41,9 @@ double initial_edge(const PvoxParams& p) {
 
 }  // namespace
 
-PvoxMapper::PvoxMapper(const PvoxParams& params) : params_(params), map_(initial_edge(params), params.probability) {}
+PvoxMapper::PvoxMapper(const PvoxParams& params) : params_(params), map_(initial_edge(params), params.probability) {
+  map_.set_budget(params.budget);
+}
 
 double PvoxMapper::edge_for(double sigma) const {
   return params_.fixed_edge > 0.0 ? params_.fixed_edge : params_.k_sigma * sigma;

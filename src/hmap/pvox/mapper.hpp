@@ -20,6 +20,7 @@ struct PvoxParams {
   AlignParams align;
   double k_sigma = 6.0;     ///< [-] edge = k · σ of the posterior position (seed: 95.4451 mm² → 58.61 mm)
   double fixed_edge = 0.0;  ///< [m] when positive, the edge is this and does not follow σ
+  MemoryBudget budget;      ///< the voxel map refuses to grow beyond it (VoxelMap::set_budget)
 
   /// Throws hmap::Error for a non-positive k or a negative or non-finite fixed edge.
   void validate() const;

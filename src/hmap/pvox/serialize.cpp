@@ -10,6 +10,7 @@
 #include <cstring>
 
 #include "hmap/core/error.hpp"
+#include "hmap/core/format.hpp"
 
 namespace hmap::pvox {
 
@@ -91,11 +92,8 @@ class PayloadReader {
 std::string points_csv(const PointCloud& points) {
   std::string out = "x,y,z\n";
   out.reserve(points.size() * 26 + 8);
-  char line[96];
   for (const Point3f& p : points) {
-    const int n = std::snprintf(line, sizeof line, "%.4f,%.4f,%.4f\n", static_cast<double>(p.x()),
-                                static_cast<double>(p.y()), static_cast<double>(p.z()));
-    out.append(line, static_cast<std::size_t>(n));
+    out += format("%.4f,%.4f,%.4f\n", static_cast<double>(p.x()), static_cast<double>(p.y()), static_cast<double>(p.z()));
   }
   return out;
 }
@@ -105,11 +103,8 @@ std::string voxels_csv(const VoxelMap& map) {
   std::erase_if(voxels, [](const VoxelView& v) { return v.hits == 0; });  // free space is in the binary only
   std::string out = "x,y,z,edge,probability\n";
   out.reserve(voxels.size() * 40 + 32);
-  char line[160];
   for (const VoxelView& v : voxels) {
-    const int n = std::snprintf(line, sizeof line, "%.5f,%.5f,%.5f,%.6f,%.5f\n", v.centre.x(), v.centre.y(),
-                                v.centre.z(), map.edge(), v.probability);
-    out.append(line, static_cast<std::size_t>(n));
+    out += format("%.5f,%.5f,%.5f,%.6f,%.5f\n", v.centre.x(), v.centre.y(), v.centre.z(), map.edge(), v.probability);
   }
   return out;
 }
@@ -191,7 +186,7 @@ std::vector<std::uint8_t> encode_binary(const VoxelMap& map) {
   return out;
 }
 
-VoxelMap decode_binary(std::span<const std::uint8_t> b, const std::string& source) {
+VoxelMap decode_binary(std::span<const std::uint8_t> b, const std::string& source, const MemoryBudget& budget) {
   if (b.size() < kHeader + 8) {
     throw InputError(source, at_byte(b.size()), "truncated: a PVOX file has at least " + std::to_string(kHeader + 8) + " bytes");
   }
@@ -227,12 +222,14 @@ VoxelMap decode_binary(std::span<const std::uint8_t> b, const std::string& sourc
     throw InputError(source, at_byte(64), "implausible uncompressed size " + std::to_string(u));
   }
   if (n > u / 8) throw InputError(source, at_byte(56), "voxel count " + std::to_string(n) + " does not fit the payload");
+  budget.require(static_cast<double>(u), source + ": the PVOX payload");
   std::vector<std::uint8_t> payload(static_cast<std::size_t>(u));
   const std::size_t got = ZSTD_decompress(payload.data(), payload.size(), b.data() + kHeader, static_cast<std::size_t>(c));
   if (ZSTD_isError(got) != 0U || got != u) {
     throw InputError(source, at_byte(kHeader), "the payload does not decompress to " + std::to_string(u) + " bytes");
   }
   VoxelMap map(edge, model);
+  map.set_budget(budget);  // the voxels come as the file claims them: each new block is checked
   PayloadReader in(payload, source);
   std::int64_t key[3] = {0, 0, 0};
   VoxelKey previous;
@@ -255,7 +252,13 @@ VoxelMap decode_binary(std::span<const std::uint8_t> b, const std::string& sourc
     if (hits > UINT32_MAX || misses > UINT32_MAX || (hits == 0 && misses == 0)) in.fail("invalid voxel counts");
     Eigen::Vector3d mean = map.centre(vk);
     for (int a = 0; a < 3; ++a) mean[a] += (in.u8() - 127.5) / 255.0 * edge;
-    map.set_voxel(vk, static_cast<std::uint32_t>(hits), static_cast<std::uint32_t>(misses), mean);
+    try {
+      map.set_voxel(vk, static_cast<std::uint32_t>(hits), static_cast<std::uint32_t>(misses), mean);
+    } catch (const InputError&) {
+      throw;
+    } catch (const Error& e) {  // the memory budget
+      throw InputError(source, "voxel " + std::to_string(r) + " of " + std::to_string(n), e.what());
+    }
   }
   if (!in.done()) in.fail("trailing bytes after the last voxel record");
   return map;

@@ -33,6 +33,7 @@
 #include <string_view>
 #include <vector>
 
+#include "hmap/core/budget.hpp"
 #include "hmap/core/types.hpp"
 #include "hmap/pvox/voxel_map.hpp"
 
@@ -54,6 +55,7 @@ struct VoxelRecord {
 [[nodiscard]] std::vector<std::uint8_t> encode_binary(const VoxelMap& map);
 /// Decodes a binary map; throws hmap::InputError naming `source`, the byte offset and the problem
 /// for a wrong magic, version or flags, a checksum mismatch, a truncation, or an invalid field.
-[[nodiscard]] VoxelMap decode_binary(std::span<const std::uint8_t> bytes, const std::string& source);
+[[nodiscard]] VoxelMap decode_binary(std::span<const std::uint8_t> bytes, const std::string& source,
+                                     const MemoryBudget& budget = {});
 
 }  // namespace hmap::pvox

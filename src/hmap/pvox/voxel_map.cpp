@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "hmap/core/error.hpp"
+#include "hmap/core/format.hpp"
 
 namespace hmap::pvox {
 
@@ -91,7 +92,11 @@ VoxelMap::VoxelMap(double edge, const ProbabilityModel& model) : edge_(edge), in
 }
 
 VoxelMap::VoxelMap(const VoxelMap& other)
-    : edge_(other.edge_), inv_edge_(other.inv_edge_), model_(other.model_), voxel_count_(other.voxel_count_) {
+    : edge_(other.edge_),
+      inv_edge_(other.inv_edge_),
+      model_(other.model_),
+      voxel_count_(other.voxel_count_),
+      budget_(other.budget_) {
   blocks_.reserve(other.blocks_.size());
   for (const auto& [key, block] : other.blocks_) blocks_.emplace(key, std::make_unique<Block>(*block));
 }
@@ -111,9 +116,16 @@ Eigen::Vector3d VoxelMap::centre(const VoxelKey& key) const {
 }
 
 Voxel& VoxelMap::touch(const VoxelKey& key) {
-  auto& block = blocks_[block_of(key)];
-  if (!block) block = std::make_unique<Block>();
-  Voxel& v = block->voxels[local_index(key)];
+  const VoxelKey bkey = block_of(key);
+  auto it = blocks_.find(bkey);
+  if (it == blocks_.end()) {
+    // Checked before the allocation; the table's growth is in the per-block estimate.
+    const std::size_t blocks = blocks_.size() + 1;
+    budget_.require(static_cast<double>(blocks) * (sizeof(Block) + sizeof(VoxelKey) + sizeof(void*) * 5),
+                    "the voxel map (" + std::to_string(blocks) + " blocks of 4^3 voxels of " + format("%g", edge_) + " m)");
+    it = blocks_.emplace(bkey, std::make_unique<Block>()).first;
+  }
+  Voxel& v = it->second->voxels[local_index(key)];
   if (v.empty()) ++voxel_count_;
   return v;
 }
@@ -146,6 +158,7 @@ void VoxelMap::set_edge(double edge) {
   if (!(edge > 0.0) || !std::isfinite(edge)) throw Error("pvox: the voxel edge must be positive and finite");
   if (edge == edge_) return;
   VoxelMap next(edge, model_);
+  next.budget_ = budget_;
   for (const auto& [bkey, block] : blocks_) {
     for (std::size_t l = 0; l < block->voxels.size(); ++l) {
       const Voxel& v = block->voxels[l];
@@ -183,6 +196,11 @@ InsertStats VoxelMap::insert(const PointCloud& points_sensor, const Pose& T_map_
   InsertStats stats;
   const Eigen::Vector3d origin = T_map_sensor.translation();
   const double limit = kMaxIndex * edge_;
+  // A pose beyond the key range would drop every point: an empty map that looks like success.
+  if (!(origin.cwiseAbs().maxCoeff() <= limit)) {
+    throw Error(format("pvox: the scan pose (%g, %g, %g) m is beyond the voxel key range of +-%g m at edge %g m",
+                       origin.x(), origin.y(), origin.z(), limit, edge_));
+  }
   for (const Point3f& ps : points_sensor) {
     const Eigen::Vector3d p_sensor = ps.cast<double>();
     const double range = p_sensor.norm();

@@ -26,6 +26,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include "hmap/core/budget.hpp"
 #include "hmap/core/types.hpp"
 
 namespace hmap::pvox {
@@ -169,6 +170,10 @@ class VoxelMap {
   [[nodiscard]] std::size_t block_count() const { return blocks_.size(); }
   /// Heap bytes held by the blocks and the hash table (estimate).
   [[nodiscard]] std::size_t memory_bytes() const;
+  /// A new block beyond `budget` throws hmap::Error before it is allocated: noisy points each
+  /// touch a block of their own (2.8 KiB per point), and a file's voxels are its claim.
+  void set_budget(const MemoryBudget& budget) { budget_ = budget; }
+  [[nodiscard]] const MemoryBudget& budget() const { return budget_; }
 
  private:
   struct Block {
@@ -182,6 +187,7 @@ class VoxelMap {
   ProbabilityModel model_;
   std::unordered_map<VoxelKey, std::unique_ptr<Block>, VoxelKeyHash> blocks_;
   std::size_t voxel_count_ = 0;
+  MemoryBudget budget_;
 };
 
 }  // namespace hmap::pvox

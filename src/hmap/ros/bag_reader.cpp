@@ -12,6 +12,7 @@
 #include <set>
 
 #include "hmap/core/error.hpp"
+#include "hmap/core/format.hpp"
 #include "hmap/io/point_time.hpp"
 #include "hmap/io/read_support.hpp"
 #include "hmap/ros/rosbag_access.hpp"
@@ -38,17 +39,25 @@ auto guarded(const fs::path& path, F&& f) -> decltype(f()) {
 }
 
 std::string stamp_text(double t) {
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%.6f", t);
-  return buf;
+  return format("%.6f", t);
 }
 
-Pose to_pose(const access::RawTransform& t) {
-  Pose pose = Pose::Identity();
+/// A pose message as a rigid transform. Its quaternion must have norm 1 within 1e-3, as in pose
+/// files (io/poses.cpp): one of norm 0 or 2 is a broken message, not a rotation to guess.
+Pose to_pose(const access::RawTransform& t, const std::string& source, const std::string& what) {
   Eigen::Quaterniond rotation(t.q[3], t.q[0], t.q[1], t.q[2]);
-  if (!(rotation.norm() > 1e-6) || !rotation.coeffs().allFinite()) rotation = Eigen::Quaterniond::Identity();
+  const double norm = rotation.norm();
+  if (!(std::abs(norm - 1.0) <= 1e-3)) {
+    throw InputError(source, what + " " + (t.child.empty() ? std::string() : t.child + " ") + "at " + stamp_text(t.stamp),
+                     "quaternion norm " + format("%g", norm) + " is not 1; not a rotation");
+  }
+  const Eigen::Vector3d translation(t.t[0], t.t[1], t.t[2]);
+  if (!translation.allFinite()) {
+    throw InputError(source, what + " at " + stamp_text(t.stamp), "the translation is not finite");
+  }
+  Pose pose = Pose::Identity();
   pose.linear() = rotation.normalized().toRotationMatrix();
-  pose.translation() = Eigen::Vector3d(t.t[0], t.t[1], t.t[2]);
+  pose.translation() = translation;
   return pose;
 }
 
@@ -102,12 +111,12 @@ struct TfTree {
   };
   std::map<std::string, Edge> edges;
 
-  void add(const access::RawTransform& t) {
+  void add(const access::RawTransform& t, const std::string& source) {
     auto& edge = edges[t.child];
     if (edge.parent.empty()) edge.parent = t.parent;
     if (edge.parent != t.parent) return;  // a re-parented frame: the first parent wins
     edge.T_parent_child.is_static = edge.T_parent_child.is_static || t.is_static;
-    edge.T_parent_child.add(t.stamp, to_pose(t));
+    edge.T_parent_child.add(t.stamp, to_pose(t, source, "/tf"));
   }
 
   /// T_root_frame at `t` and the root's name, or the reason there is none.
@@ -479,7 +488,7 @@ BagCloudReader::BagCloudReader(const fs::path& path, const BagCloudOptions& opti
       throw InputError(source, "", "topic " + options.cloud_topic + " has no messages (see hmap bag-info)");
     }
     TfTree tf;
-    for (const auto& t : impl_->bag->read_tf()) tf.add(t);
+    for (const auto& t : impl_->bag->read_tf()) tf.add(t, source);
     for (auto& [child, edge] : tf.edges) edge.T_parent_child.sort();
 
     const double tol = options.max_extrapolation;
@@ -490,7 +499,7 @@ BagCloudReader::BagCloudReader(const fs::path& path, const BagCloudOptions& opti
       const auto raw = impl_->bag->read_poses(options.pose_topic);
       if (raw.empty()) throw InputError(source, "", "pose topic " + options.pose_topic + " has no messages");
       for (const auto& r : raw) {
-        odom.add(r.stamp, to_pose(r));
+        odom.add(r.stamp, to_pose(r, source, "pose topic " + options.pose_topic));
         parent = r.parent;
         child = r.child;
       }

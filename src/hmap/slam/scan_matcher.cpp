@@ -8,6 +8,8 @@
 #include <cmath>
 #include <limits>
 
+#include "hmap/core/checked.hpp"
+
 namespace hmap::slam {
 
 namespace {
@@ -17,6 +19,11 @@ namespace {
 constexpr double kMaxStepCells = 4.0;
 /// The coarse search scores the pose with at most this many HVoxels.
 constexpr std::size_t kCoarseHVoxels = 200;
+/// The coarse search takes at most this many steps each way in x and y (validate() keeps
+/// slam.coarse_translation within 100 cells, 50 steps of two cells) and in yaw (the yaw step
+/// follows the scan's radius, which comes from the data: beyond, the step widens).
+constexpr int kCoarseMaxSteps = 50;
+constexpr int kCoarseMaxYawSteps = 64;
 /// The degeneracy check evaluates the cost with at most this many HVoxels.
 constexpr std::size_t kCurvatureHVoxels = 500;
 
@@ -284,9 +291,14 @@ std::vector<PlanarPose> ScanMatcher::coarse_search(const PlanarPose& guess) {
   const std::size_t stride = std::max<std::size_t>(1, candidates_.size() / kCoarseHVoxels);
   const double cell = params_.map.cell_size;
   const double dt = 2.0 * cell;
-  const double dr = 2.0 * cell / rms_radius_;
-  const int nt = static_cast<int>(std::ceil(params_.slam.coarse_translation / dt));
-  const int nr = static_cast<int>(std::ceil(params_.slam.coarse_rotation / dr));
+  const double rotation = params_.slam.coarse_rotation;
+  const double dr = std::max(2.0 * cell / rms_radius_, rotation / kCoarseMaxYawSteps);
+  // Both counts are bounded before the grid is sized (a cast of 1e12 to int was undefined).
+  const int nt = checked_count<int>(params_.slam.coarse_translation / dt, kCoarseMaxSteps + 1,  // + 1: rounding
+                                    "the coarse search in x and y (slam.coarse_translation)");
+  const int nr = rotation > 0.0 ? checked_count<int>(rotation / dr, kCoarseMaxYawSteps,
+                                                     "the coarse search in yaw (slam.coarse_rotation)")
+                                : 0;
   struct Scored {
     double cost;
     PlanarPose pose;
