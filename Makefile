@@ -17,7 +17,7 @@ DEBS := cmake ninja-build g++ pkg-config libeigen3-dev libnanoflann-dev libtbb-d
         librosbag-dev libsensor-msgs-dev libnav-msgs-dev libtf2-msgs-dev python3-rosbag python3-sensor-msgs \
         python3-nav-msgs python3-tf2-msgs clang libclang-rt-14-dev
 
-.PHONY: all deps build demo demo-real test test-sanitize bench bench-slam clean fuzz-ci test-tsan
+.PHONY: all deps build tool demo demo-real test test-sanitize bench bench-slam clean fuzz-ci test-tsan
 
 all: build
 
@@ -37,12 +37,16 @@ build: deps $(BUILD)/build.ninja
 
 # The main job on the built-in default: simulate the `parking` scene with a VLP-16 along a car
 # path, map it, evaluate the map against the truth, draw it (no download needed).
-demo: build
+# Builds the hmap tool and the libraries it links, not the tests and benchmarks (`make test` does).
+tool: deps $(BUILD)/build.ninja
+	cmake --build $(BUILD) -j $(JOBS) --target hmap
+
+demo: tool
 	$(BUILD)/bin/hmap demo --out out/demo
 	@echo "report: out/demo/report.md; pictures: out/demo/map_top.png out/demo/map_oblique.png"
 
 # The same on real recorded scans: the Ouster OS0-64 recording of ../shared/data.
-demo-real: build
+demo-real: tool
 	@mkdir -p out
 	$(BUILD)/bin/hmap map --kitti $(DATA)/balm_os0 --preset outdoor --cell 0.1 --out out/balm_os0.hmap
 	$(BUILD)/bin/hmap info out/balm_os0.hmap
