@@ -1,5 +1,6 @@
 // hmap render: pictures of a map — top-down or oblique, with trajectories over the top view.
 
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 
@@ -63,18 +64,36 @@ void run_render(const RenderOptions& o) {
   } else if (o.layer == "ground") {
     draw_ground_patches(img, vp, file.ground, 255, 255, 255);
   }
-  // First path white (the truth, by convention), then red, magenta, orange.
+  // First path white on the height view (the truth, by convention), blue on the occupancy layer
+  // (white there is free space); then red, magenta, orange.
+  const bool on_grid = o.layer == "occupancy";
   const std::uint8_t colours[4][3] = {{255, 255, 255}, {255, 40, 40}, {255, 0, 255}, {255, 160, 0}};
-  for (std::size_t k = 0; k < paths.size(); ++k) {
-    const auto* c = colours[std::min<std::size_t>(k, 3)];
-    draw_path(img, vp, paths[k], c[0], c[1], c[2]);
+  std::vector<LegendEntry> legend;
+  if (on_grid) {
+    legend = {{255, 255, 255, "FREE"}, {0, 0, 0, "OCCUPIED"}, {205, 205, 205, "UNKNOWN"}};
+  } else {
+    std::uint8_t r = 0, g = 0, b = 0;
+    height_colour(0.0, r, g, b);
+    legend.push_back({r, g, b, format("%.2f M", range.z_low)});
+    height_colour(1.0, r, g, b);
+    legend.push_back({r, g, b, format("%.2f M", range.z_high)});
   }
+  for (std::size_t k = 0; k < paths.size(); ++k) {
+    std::uint8_t c[3] = {colours[std::min<std::size_t>(k, 3)][0], colours[std::min<std::size_t>(k, 3)][1],
+                         colours[std::min<std::size_t>(k, 3)][2]};
+    if (on_grid && k == 0) c[0] = 0, c[1] = 90, c[2] = 255;
+    draw_path(img, vp, paths[k], c[0], c[1], c[2]);
+    std::string name = std::filesystem::path(o.trajectories[k]).stem().string();
+    for (char& ch : name) ch = static_cast<char>(std::toupper(static_cast<unsigned char>(ch)));
+    legend.push_back({c[0], c[1], c[2], "PATH " + name.substr(0, 20)});
+  }
+  draw_legend_and_scale(img, vp, legend);
   write_png(o.out, img);
   if (o.layer == "occupancy") {
     std::printf("wrote %s: %dx%d pixels, %.3f m per pixel; 2D occupancy (free white, occupied black, unknown grey) "
                 "%s\n",
                 o.out.c_str(), img.width, img.height, vp.m_per_px,
-                paths.empty() ? "" : "; paths: first white, then red, magenta, orange");
+                paths.empty() ? "" : "; paths: first blue, then red, magenta, orange");
   } else {
     std::printf("wrote %s: %dx%d pixels, %.3f m per pixel, colour from %.2f m (blue) to %.2f m (red); "
                 "light cells hold several HVoxels%s%s\n",

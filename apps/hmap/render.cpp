@@ -1,7 +1,10 @@
 #include "render.hpp"
 
+#include "hmap/core/format.hpp"
+
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <limits>
 
 #include "hmap/core/checked.hpp"
@@ -372,6 +375,63 @@ void draw_ground_patches(RgbImage& image, const TopViewport& vp, const std::vect
                 255, 255, 255);
     }
   }
+}
+
+double scale_bar_length(double width_m) {
+  if (!(width_m > 0.0) || !std::isfinite(width_m)) return 0.0;
+  const double target = width_m / 5.0;
+  double best = 0.0;
+  for (int e = -3; e <= 6; ++e) {
+    for (const double m : {1.0, 2.0, 5.0}) {
+      const double v = m * std::pow(10.0, e);
+      if (v <= target) best = std::max(best, v);
+    }
+  }
+  return best;
+}
+
+namespace {
+void fill_box(RgbImage& img, int x0, int y0, int x1, int y1, std::uint8_t r, std::uint8_t g, std::uint8_t b) {
+  for (int y = std::max(0, y0); y < std::min(img.height, y1); ++y) {
+    for (int x = std::max(0, x0); x < std::min(img.width, x1); ++x) img.set(x, y, r, g, b);
+  }
+}
+void framed_box(RgbImage& img, int x0, int y0, int x1, int y1) {
+  fill_box(img, x0, y0, x1, y1, 0, 0, 0);
+  fill_box(img, x0 + 1, y0 + 1, x1 - 1, y1 - 1, 255, 255, 255);
+}
+}  // namespace
+
+void draw_legend_and_scale(RgbImage& image, const TopViewport& viewport, const std::vector<LegendEntry>& legend) {
+  constexpr int kScale = 1;       // font pixels per pixel
+  constexpr int kLine = 10;       // [px] per legend line (7 px glyphs)
+  constexpr int kSwatch = 8;
+  constexpr int kMargin = 4;
+  std::size_t longest = 0;
+  for (const LegendEntry& e : legend) longest = std::max(longest, e.label.size());
+  const int legend_w = kMargin * 3 + kSwatch + static_cast<int>(longest) * 6 * kScale;
+  const int legend_h = kMargin * 2 + static_cast<int>(legend.size()) * kLine;
+  if (!legend.empty() && image.width >= legend_w + 8 && image.height >= legend_h + 40) {
+    framed_box(image, 4, 4, 4 + legend_w, 4 + legend_h);
+    for (std::size_t k = 0; k < legend.size(); ++k) {
+      const int y = 4 + kMargin + static_cast<int>(k) * kLine;
+      const LegendEntry& e = legend[k];
+      fill_box(image, 4 + kMargin - 1, y - 1, 4 + kMargin + kSwatch + 1, y + kSwatch + 1, 0, 0, 0);
+      fill_box(image, 4 + kMargin, y, 4 + kMargin + kSwatch, y + kSwatch, e.r, e.g, e.b);
+      draw_text(image, 4 + 2 * kMargin + kSwatch, y, e.label, kScale, 0, 0, 0);
+    }
+  }
+  const double length_m = scale_bar_length(image.width * viewport.m_per_px);
+  const int bar_px = static_cast<int>(std::lround(length_m / viewport.m_per_px));
+  const std::string label = format("%g M", length_m);
+  const int box_w = std::max(bar_px, static_cast<int>(label.size()) * 6) + 2 * kMargin;
+  if (bar_px < 10 || image.width < box_w + 8 || image.height < 40) return;
+  const int y1 = image.height - 4;
+  framed_box(image, 4, y1 - 24, 4 + box_w, y1);
+  fill_box(image, 4 + kMargin, y1 - 8, 4 + kMargin + bar_px, y1 - 5, 0, 0, 0);  // the bar
+  fill_box(image, 4 + kMargin, y1 - 11, 4 + kMargin + 1, y1 - 5, 0, 0, 0);      // its ends
+  fill_box(image, 4 + kMargin + bar_px - 1, y1 - 11, 4 + kMargin + bar_px, y1 - 5, 0, 0, 0);
+  draw_text(image, 4 + kMargin, y1 - 21, label, kScale, 0, 0, 0);
 }
 
 }  // namespace hmap::cli

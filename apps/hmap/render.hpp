@@ -81,6 +81,21 @@ void draw_ground_patches(RgbImage& image, const TopViewport& viewport, const std
 void draw_text(RgbImage& image, int x, int y, std::string_view text, int scale, std::uint8_t r, std::uint8_t g,
                std::uint8_t b);
 
+/// One entry of a legend: a colour swatch and its label.
+struct LegendEntry {
+  std::uint8_t r, g, b;
+  std::string label;
+};
+
+/// A legend box (swatches and labels) in the top-left corner and a scale bar (a round length of
+/// about a fifth of the width: 1, 2 or 5 × 10^k m, labelled) in the bottom-left corner, each on a
+/// white box with a black frame so they read on any background. Pictures too small to hold them
+/// are left as they are.
+void draw_legend_and_scale(RgbImage& image, const TopViewport& viewport, const std::vector<LegendEntry>& legend);
+
+/// The scale bar's length [m] for a picture `width_m` wide: the largest 1, 2 or 5 × 10^k at most a fifth of it.
+[[nodiscard]] double scale_bar_length(double width_m);
+
 /// Panels side by side on white, each with its title above it.
 [[nodiscard]] RgbImage side_by_side(const std::vector<std::pair<std::string, RgbImage>>& panels);
 
