@@ -3,6 +3,7 @@
 #include <cstdio>
 
 #include "cli_common.hpp"
+#include "hmap/io/imu_text.hpp"
 #include "hmap/io/ply_export.hpp"
 #include "hmap/io/sequence_writer.hpp"
 #include "simulation.hpp"
@@ -29,6 +30,7 @@ void run_simulate(const SimulateOptions& o) {
   write_simulated_sequence(o.out, rec.scans, rec.T_world_sensor, rec.times, rec.odometry, rec.truth_surface);
   write_points_ply(std::filesystem::path(o.out) / "truth_seen.ply", rec.truth_seen);
   write_points_ply(std::filesystem::path(o.out) / "truth_ground.ply", rec.truth_ground);
+  if (!rec.imu.empty()) write_imu_text(std::filesystem::path(o.out) / "imu.txt", rec.imu);
   const double length = path_length(rec.T_world_sensor);
   std::printf("Simulated %zu %s frames of '%s' (seed %llu) along %.1f m in %.1f s: %s points. Wrote %s: "
               "velodyne/*.bin, poses.txt (truth), times.txt, odometry.txt (noisy), truth.ply (%s surface "
@@ -38,6 +40,7 @@ void run_simulate(const SimulateOptions& o) {
               human_count(static_cast<double>(rec.points)).c_str(), o.out.c_str(),
               human_count(static_cast<double>(rec.truth_surface.size())).c_str(), o.spec.truth_spacing,
               human_count(static_cast<double>(rec.truth_seen.size())).c_str());
+  if (!rec.imu.empty()) std::printf("imu.txt: %zu IMU samples at %g Hz.\n", rec.imu.size(), o.spec.imu_rate);
 }
 
 }  // namespace
@@ -58,6 +61,10 @@ void add_simulate_command(CLI::App& app) {
                 "parking: drive on after the side road (U-turn, back south, east to the street's end; ~313 m)");
   cmd->add_option("--seed", opts->spec.seed, "Noise seed")->check(kCount)->capture_default_str();
   cmd->add_option("--truth-spacing", opts->spec.truth_spacing, "Spacing of the true surface sample [m]")->capture_default_str();
+  cmd->add_option("--imu-rate", opts->spec.imu_rate,
+                  "[Hz] also write imu.txt: an IMU on the sensor (gyro and specific force with noise and a fixed "
+                  "seed; the format of hmap slam --imu); 0 = none")
+      ->capture_default_str();
   cmd->add_option("--out,-o", opts->out, "Output folder")->required();
   cmd->callback([opts] { run_simulate(*opts); });
 }

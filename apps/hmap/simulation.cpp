@@ -1,5 +1,6 @@
 #include "simulation.hpp"
 
+#include <algorithm>
 #include <fstream>
 #include <random>
 #include <sstream>
@@ -8,6 +9,7 @@
 #include "hmap/core/error.hpp"
 #include "hmap/io/read_support.hpp"
 #include "hmap/sim/builtin_scenes.hpp"
+#include "hmap/sim/imu_sim.hpp"
 #include "hmap/sim/scene_json.hpp"
 #include "hmap/sim/sensors.hpp"
 #include "hmap/sim/trajectory.hpp"
@@ -116,6 +118,17 @@ SimulatedRecording simulate(const SimulationSpec& spec, const std::function<void
     for (const Point3f& p : e.points_sensor) rec.truth_seen.push_back((rec.T_world_sensor[k] * p.cast<double>()).cast<float>());
     if (progress) progress(k + 1, n);
   }
+  if (spec.imu_rate > 0.0) {
+    // An IMU on the sensor over the whole path, on a smooth interpolation of its frames.
+    if (!(spec.imu_rate >= 10.0 && spec.imu_rate <= 2000.0)) throw Error("--imu-rate must be in [10, 2000] Hz");
+    sim::ImuSimParams imu;
+    imu.rate = spec.imu_rate;
+    imu.seed = spec.seed;
+    // 2 ms inside the path's ends: the derivatives there would see the clamped pose outside it.
+    const double t0 = path.times.front() + 0.002;
+    const double t1 = std::min(rec.times.back(), path.times.back() - 0.002);
+    if (t1 > t0) rec.imu = sim::simulate_imu([&](double t) { return sim::pose_at(path, t); }, t0, t1, imu);
+  }
   sim::OdometryNoiseParams noise;
   noise.seed = spec.seed;
   rec.odometry = sim::noisy_odometry(rec.T_world_sensor, noise);
@@ -128,12 +141,12 @@ SimulatedRecording simulate(const SimulationSpec& spec, const std::function<void
   const double reach = std::min(sensor_reach(sensor), spec.truth_reach) + 2.0;
   std::mt19937_64 rng(spec.seed);
   const sim::Scene::KindedSample truth = scene.sample_surface_kinds(spec.truth_spacing, rng, t_end);
-  for (std::size_t n = 0; n < truth.points.size(); ++n) {
-    const Point3f& p = truth.points[n];
+  for (std::size_t q = 0; q < truth.points.size(); ++q) {
+    const Point3f& p = truth.points[q];
     for (const Eigen::Vector3d& a : anchors) {
       if ((p.cast<double>() - a).squaredNorm() <= reach * reach) {
         rec.truth_surface.push_back(p);
-        if (truth.kinds[n] == sim::SurfaceKind::kGround) rec.truth_ground.push_back(p);
+        if (truth.kinds[q] == sim::SurfaceKind::kGround) rec.truth_ground.push_back(p);
         break;
       }
     }

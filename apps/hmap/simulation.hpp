@@ -6,6 +6,7 @@
 #include <functional>
 #include <string>
 
+#include "hmap/core/imu.hpp"
 #include "hmap/core/types.hpp"
 #include "hmap/sim/scene.hpp"
 
@@ -21,6 +22,7 @@ struct SimulationSpec {
   std::uint64_t seed = 1;
   double truth_spacing = 0.1;      ///< [m] of the dense surface sample
   double truth_reach = 30.0;       ///< [m] the sample is kept this close to the path
+  double imu_rate = 0.0;           ///< [Hz] of a simulated IMU on the sensor (noise: sim::ImuSimParams); 0 = none
 };
 
 struct SimulatedRecording {
@@ -28,6 +30,7 @@ struct SimulatedRecording {
   PoseList T_world_sensor;         ///< the truth
   std::vector<double> times;       ///< [s]
   PoseList odometry;               ///< integrated noisy odometry
+  ImuSamples imu;                  ///< the simulated IMU over the whole path, when asked for
   PointCloud truth_ground;         ///< the part of truth_surface that is walkable ground (roads, floors, ramps)
   PointCloud truth_seen;           ///< noise-free returns of the same sensor at every pose, scene at the last time
   PointCloud truth_surface;        ///< dense sample of every surface within the sensor's reach of the path

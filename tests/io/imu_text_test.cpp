@@ -2,8 +2,11 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <filesystem>
 #include <string>
 
+#include "hmap/core/error.hpp"
 #include "io/io_test_util.hpp"
 
 namespace hmap {
@@ -64,6 +67,38 @@ TEST_F(ImuTextTest, BadLinesAreRefusedWithFileAndLine) {
   EXPECT_TRUE(contains(e, "no IMU sample"));
   e = err("eight.txt", "0.2 0 0 0 0 0 9.81 1\n");
   EXPECT_TRUE(contains(e, "found 8"));
+}
+
+}  // namespace
+}  // namespace hmap
+
+namespace hmap {
+namespace {
+
+// What write_imu_text writes, read_imu_text reads back exactly (shortest round-trip decimals),
+// the orientation where a sample has one; a non-finite value is refused and nothing is written.
+TEST_F(ImuTextTest, WrittenSamplesReadBackExactly) {
+  ImuSamples in(3);
+  for (std::size_t k = 0; k < in.size(); ++k) {
+    in[k].t = 0.005 * static_cast<double>(k) + 1.0 / 3.0;
+    in[k].gyro = {0.1 * static_cast<double>(k), -1e-7, 3.0};
+    in[k].accel = {0.01, -0.02, 9.80665 + 1e-12 * static_cast<double>(k)};
+  }
+  in[1].orientation = Eigen::Quaterniond(0.5, 0.5, -0.5, 0.5);
+  const auto path = dir_ / "w.txt";
+  write_imu_text(path, in);
+  const ImuSamples out = read_imu_text(path);
+  ASSERT_EQ(out.size(), in.size());
+  for (std::size_t k = 0; k < in.size(); ++k) {
+    EXPECT_EQ(out[k].t, in[k].t);
+    EXPECT_EQ(out[k].gyro, in[k].gyro);
+    EXPECT_EQ(out[k].accel, in[k].accel);
+    EXPECT_EQ(out[k].orientation.has_value(), in[k].orientation.has_value());
+  }
+  EXPECT_NEAR(out[1].orientation->angularDistance(*in[1].orientation), 0.0, 1e-12);
+  in[2].accel.x() = std::nan("");
+  EXPECT_THROW(write_imu_text(dir_ / "bad.txt", in), Error);
+  EXPECT_FALSE(std::filesystem::exists(dir_ / "bad.txt"));
 }
 
 }  // namespace

@@ -136,3 +136,33 @@ TEST(StopAndGo, RestsAtEveryStopAndMovesBetween) {
 
 }  // namespace
 }  // namespace hmap::sim
+
+namespace hmap::sim {
+namespace {
+
+// pose_at: the frames themselves at their times; along a straight line at constant speed the
+// spline is the line (position linear in t, so zero acceleration for a simulated IMU); a quarter
+// turn halfway is 45 degrees; clamped outside; an empty trajectory refused.
+TEST(PoseAt, FramesLinesAndClamping) {
+  Trajectory tr;
+  for (int k = 0; k < 5; ++k) {
+    Pose T = Pose::Identity();
+    T.translation() = Eigen::Vector3d(2.0 * k, 1.0, 0.5);
+    T.linear() = Eigen::AngleAxisd(k == 4 ? std::numbers::pi / 2 : 0.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    tr.T_world_sensor.push_back(T);
+    tr.times.push_back(0.1 * k);
+  }
+  for (int k = 0; k < 5; ++k) {
+    EXPECT_TRUE(pose_at(tr, 0.1 * k).isApprox(tr.T_world_sensor[static_cast<std::size_t>(k)], 1e-12)) << k;
+  }
+  EXPECT_NEAR(pose_at(tr, 0.137).translation().x(), 2.74, 1e-12);
+  EXPECT_NEAR(pose_at(tr, 0.137).translation().y(), 1.0, 1e-12);
+  const double yaw = Eigen::AngleAxisd(pose_at(tr, 0.35).linear()).angle();
+  EXPECT_NEAR(yaw, std::numbers::pi / 4, 1e-9);
+  EXPECT_TRUE(pose_at(tr, -1.0).isApprox(tr.T_world_sensor.front()));
+  EXPECT_TRUE(pose_at(tr, 9.0).isApprox(tr.T_world_sensor.back()));
+  EXPECT_THROW((void)pose_at(Trajectory{}, 0.0), Error);
+}
+
+}  // namespace
+}  // namespace hmap::sim

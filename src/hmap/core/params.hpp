@@ -101,8 +101,10 @@ struct SlamParams {
                                            ///< gravity corrects the gyro's tilt with gain dt / (τ + dt)
   double imu_accel_gate = 0.2;             ///< [-] samples whose |accel| differs from g by more than this
                                            ///< fraction of g do not correct the tilt (the sensor accelerates)
-  double imu_tilt_weight = 1.0;            ///< [-] pull of the attitude fit toward the IMU's gravity, as a
-                                           ///< fraction of the map pairs' tilt information (1: as much)
+  double imu_tilt_weight = 0.0;            ///< [-] pull of the attitude fit toward the IMU's gravity, as a
+                                           ///< fraction of the map pairs' tilt information (1: as much);
+                                           ///< 0 = the IMU's tilt is not used (a vehicle's speed changes
+                                           ///< bias it), only its gyro
   double imu_roll = 0.0;                   ///< [rad] R_sensor_imu = Rz(yaw)·Ry(pitch)·Rx(roll): the IMU's
   double imu_pitch = 0.0;                  ///< [rad]   mounting in the sensor frame (identity by default)
   double imu_yaw = 0.0;                    ///< [rad]

@@ -1,5 +1,9 @@
 #include "hmap/io/imu_text.hpp"
 
+#include "hmap/io/atomic_file.hpp"
+
+#include <charconv>
+
 #include <cmath>
 #include <string>
 #include <string_view>
@@ -72,6 +76,27 @@ ImuSamples read_imu_text(const std::filesystem::path& path) {
     }
   }
   return samples;
+}
+
+void write_imu_text(const std::filesystem::path& path, const ImuSamples& samples) {
+  std::string text = "# t [s] gx gy gz [rad/s] ax ay az [m/s^2] (specific force) [qx qy qz qw: world <- imu]\n";
+  char number[32];
+  const auto put = [&](double v) {
+    if (!std::isfinite(v)) throw Error(path.string() + ": an IMU value is not finite");
+    const auto end = std::to_chars(number, number + sizeof number, v).ptr;
+    text.append(number, static_cast<std::size_t>(end - number));
+  };
+  for (const ImuSample& s : samples) {
+    put(s.t);
+    for (int i = 0; i < 3; ++i) text += ' ', put(s.gyro[i]);
+    for (int i = 0; i < 3; ++i) text += ' ', put(s.accel[i]);
+    if (s.orientation) {
+      const Eigen::Quaterniond& q = *s.orientation;
+      for (const double v : {q.x(), q.y(), q.z(), q.w()}) text += ' ', put(v);
+    }
+    text += '\n';
+  }
+  write_file_atomic(path, text);
 }
 
 }  // namespace hmap

@@ -19,4 +19,9 @@ namespace hmap {
 /// one, or a file with no sample.
 [[nodiscard]] ImuSamples read_imu_text(const std::filesystem::path& path);
 
+/// Writes `samples` in the format read_imu_text reads (t gx gy gz ax ay az, the orientation when a
+/// sample has one), shortest round-trip decimals, atomically. Throws hmap::Error for a value that
+/// is not finite.
+void write_imu_text(const std::filesystem::path& path, const ImuSamples& samples);
+
 }  // namespace hmap

@@ -254,4 +254,34 @@ StopAndGo stop_and_go(const PoseList& stops, const StopAndGoParams& params) {
   return out;
 }
 
+Pose pose_at(const Trajectory& trajectory, double t) {
+  const auto& T = trajectory.T_world_sensor;
+  const auto& times = trajectory.times;
+  check(!T.empty() && T.size() == times.size(), "pose_at: the trajectory is empty or its times do not match its poses");
+  if (T.size() == 1 || !(t > times.front())) return T.front();
+  if (t >= times.back()) return T.back();
+  const std::size_t k = static_cast<std::size_t>(std::upper_bound(times.begin(), times.end(), t) - times.begin()) - 1;
+  const double dt = times[k + 1] - times[k];
+  check(dt > 0.0, "pose_at: the trajectory's times must increase");
+  const double u = (t - times[k]) / dt;
+  // Catmull-Rom: the tangent at a frame is the velocity by central differences (one-sided at the
+  // ends), times the segment's duration (Hermite's tangents are per unit of u).
+  const auto p = [&](std::size_t i) -> Eigen::Vector3d { return T[i].translation(); };
+  const auto velocity = [&](std::size_t i) -> Eigen::Vector3d {
+    const std::size_t a = i > 0 ? i - 1 : i;
+    const std::size_t b = i + 1 < T.size() ? i + 1 : i;
+    return (p(b) - p(a)) / (times[b] - times[a]);
+  };
+  const Eigen::Vector3d m0 = velocity(k) * dt;
+  const Eigen::Vector3d m1 = velocity(k + 1) * dt;
+  const double u2 = u * u;
+  const double u3 = u2 * u;
+  Pose out = Pose::Identity();
+  out.translation() = (2 * u3 - 3 * u2 + 1) * p(k) + (u3 - 2 * u2 + u) * m0 + (-2 * u3 + 3 * u2) * p(k + 1) + (u3 - u2) * m1;
+  const Eigen::Quaterniond q0(T[k].linear());
+  const Eigen::Quaterniond q1(T[k + 1].linear());
+  out.linear() = q0.slerp(u, q1).toRotationMatrix();
+  return out;
+}
+
 }  // namespace hmap::sim

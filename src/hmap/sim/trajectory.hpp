@@ -16,6 +16,13 @@ struct Trajectory {
   std::vector<double> times;  ///< [s], one per pose, starting at 0
 };
 
+/// The pose at time t [s] between the frames: positions on the Catmull-Rom spline through the
+/// frame positions (so velocity is continuous and an IMU simulated on it sees a finite
+/// acceleration), rotations slerped between neighbouring frames. Clamped to the first and last
+/// frame outside [times.front(), times.back()]. Throws hmap::Error for an empty trajectory or one
+/// whose times do not increase.
+[[nodiscard]] Pose pose_at(const Trajectory& trajectory, double t);
+
 /// A differential-drive robot: drives straight between waypoints and turns on the spot at them.
 struct DiffDriveParams {
   double speed = 0.5;          ///< [m/s]

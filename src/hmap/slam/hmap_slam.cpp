@@ -131,8 +131,12 @@ SlamStep HmapSlam::process(const ScanInput& input) {
   }
   PlanarPose estimate = step.guess;
   Attitude attitude = given.value_or(last_attitude_);
-  // With an IMU and no attitude given, the tilt guess is the IMU's gravity; the floor is not needed.
-  const bool imu_tilt = !given && imu.has_value();
+  // With an IMU, no attitude given and slam.imu_tilt_weight > 0, the tilt guess is the IMU's
+  // gravity and the attitude fit is pulled toward it; the floor is not needed. Off by default: the
+  // filter takes off the turn's acceleration but not the change of speed, so on the simulated
+  // parking route (a car that speeds up and brakes) its vertical was up to 8 deg off and the long
+  // route's RPE went from 0.97 % to 5.5 % with odometry. The gyro's turn is used either way.
+  const bool imu_tilt = !given && imu.has_value() && params_.slam.imu_tilt_weight > 0.0;
   if (imu_tilt) {
     attitude = tilt_aligning(imu->up_sensor, Eigen::Vector3d::UnitZ(), attitude);
     step.imu_used = true;

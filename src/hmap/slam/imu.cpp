@@ -50,15 +50,25 @@ Eigen::Vector3d ImuAttitudeFilter::rate_at(double t) const {
 
 void ImuAttitudeFilter::start() {
   if (!started_) {
-    // The first sample's gravity (or its own orientation) starts the filter.
-    const ImuSample& s0 = samples_.front();
+    // The first sample's gravity (or its own orientation) starts the filter: the first whose
+    // |accel| is within the gate of g, so one jolt (or a glitch) at the start cannot set the tilt
+    // (a sample at 20 g started a simulated run 87 degrees off); none within it: the first.
+    std::size_t first = 0;
+    for (std::size_t k = 0; k < samples_.size(); ++k) {
+      const ImuSample& s = samples_[k];
+      if (s.orientation || std::abs(s.accel.norm() - kGravity) <= params_.imu_accel_gate * kGravity) {
+        first = k;
+        break;
+      }
+    }
+    const ImuSample& s0 = samples_[first];
     if (s0.orientation) {
       R_world_imu_ = s0.orientation->normalized().toRotationMatrix();
     } else if (s0.accel.norm() > 1e-6) {
       R_world_imu_ = Eigen::Quaterniond::FromTwoVectors(s0.accel.normalized(), Eigen::Vector3d::UnitZ()).toRotationMatrix();
     }
     now_ = s0.t;
-    next_ = 1;
+    next_ = first + 1;
     started_ = true;
   }
 }
