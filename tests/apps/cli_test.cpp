@@ -379,7 +379,9 @@ TEST_F(CliTest, HybridMapExportsItsGridAndCompareScoresIt) {
     for (const char* field : {"blocked_found", "free_found", "overhang_free", "accuracy"}) {
       ASSERT_TRUE(line.contains(field)) << key << " " << field;
     }
-    if (key == "HMAP/kept") EXPECT_DOUBLE_EQ(line.at("overhang_free").get<double>(), hm.at("overhang_free").get<double>());
+    if (key == "HMAP/kept") {
+      EXPECT_DOUBLE_EQ(line.at("overhang_free").get<double>(), hm.at("overhang_free").get<double>());
+    }
   }
   for (const char* g : {"HMAP/kept", "HMAP/judged", "HMAP/both", "2.5D [9]/judged", "OctoMap/projected", "HMAP/3d",
                         "2.5D [9]/3d", "OctoMap/3d"}) {
