@@ -183,7 +183,10 @@ OccupancyUpdateStats OccupancyUpdater::update(const ScanHVoxels& scan, const Gro
       const double g_target = ground_z_[c];
       const double h_start = zs - (std::isnan(sensor_ground) ? g_target : sensor_ground);
       const double h_end = z_low - g_target;
-      const auto [t_free_lo, t_free_hi] = below_along(h_start, h_end, op.free_ray_height);
+      // Named doubles, not a structured binding: clang 14 cannot capture those in the lambda below.
+      const std::pair<double, double> free_span = below_along(h_start, h_end, op.free_ray_height);
+      const double t_free_lo = free_span.first;
+      const double t_free_hi = free_span.second;
       // Nothing before min(t_free_lo, t_cutoff) is touched. The walk still starts at the sensor:
       // started halfway, it would cross a grid corner on the other side now and then.
       const double t_start = std::min(t_free_lo, t_cutoff);
