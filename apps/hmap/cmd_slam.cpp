@@ -159,7 +159,7 @@ void run_slam(const SlamOptions& o) {
   std::string log = "scan,matched,converged,iterations,initial_cost,final_cost,score,hvoxels,degenerate,coarse_search,"
                     "skipped,eig0,eig1,eig2,guess_x,guess_y,guess_yaw,x,y,yaw,z,roll,pitch,attitude_fit,surfaces,surface_rms,"
                     "observable_x,observable_y,observable_z,observable_roll,observable_pitch,observable_yaw,planar_passes,deskewed,"
-                    "imu,ms\n";
+                    "imu,tilt_hypotheses,tilt_from_floor,ms\n";
   Progress progress("slam", n);
   std::size_t deskewed = 0;
   std::vector<float> point_times;
@@ -200,14 +200,14 @@ void run_slam(const SlamOptions& o) {
       const auto& af = step.attitude;
       log += format(
                     "%zu,%d,%d,%d,%.6g,%.6g,%.6g,%zu,%d,%d,%d,%.6g,%.6g,%.6g,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,"
-                    "%d,%zu,%.4f,%d,%d,%d,%d,%d,%d,%d,%d,%d,%.3f\n",
+                    "%d,%zu,%.4f,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%.3f\n",
                     k, step.matched ? 1 : 0, m.converged ? 1 : 0, m.iterations, m.initial_cost, m.final_cost, m.score,
                     m.hvoxels_used, m.degenerate ? 1 : 0, m.coarse_search ? 1 : 0, m.skipped ? 1 : 0, m.eigenvalues(0),
                     m.eigenvalues(1), m.eigenvalues(2), step.guess.x, step.guess.y, step.guess.yaw, xi.x, xi.y, xi.yaw,
                     at.z, at.roll, at.pitch, af.ran ? 1 : 0, af.surfaces, af.rms, step.observable[0] ? 1 : 0,
                     step.observable[1] ? 1 : 0, step.observable[2] ? 1 : 0, step.observable[3] ? 1 : 0,
                     step.observable[4] ? 1 : 0, step.observable[5] ? 1 : 0, step.planar_passes, step.deskewed ? 1 : 0,
-                    step.imu_used ? 1 : 0, ms);
+                    step.imu_used ? 1 : 0, step.tilt_hypotheses, step.tilt_from_floor ? 1 : 0, ms);
     }
     estimate.push_back(step.T_map_sensor);
     if (step.matched) {

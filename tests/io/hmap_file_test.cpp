@@ -570,13 +570,14 @@ TEST_F(HMapFileTest, FileWrittenBeforeTopNoiseLoadsWithItsDefault) {
   EXPECT_DOUBLE_EQ(load_hmap(path).params().slam.level_prior, SlamParams{}.level_prior);
   // And the IMU and deskewing parameters of issue 16 (maps written before them).
   for (const char* name : {"slam.imu_gravity_time_constant", "slam.imu_accel_gate", "slam.imu_tilt_weight",
-                           "slam.imu_roll", "slam.imu_pitch", "slam.imu_yaw", "slam.deskew"}) {
+                           "slam.imu_roll", "slam.imu_pitch", "slam.imu_yaw", "slam.deskew", "slam.level_max_slope"}) {
     j.erase(name);
   }
   p.json = j.dump();
   std::ofstream(path, std::ios::binary | std::ios::trunc) << assemble(p);
   EXPECT_EQ(load_hmap(path).params().slam.deskew, SlamParams{}.deskew);
   EXPECT_DOUBLE_EQ(load_hmap(path).params().slam.imu_tilt_weight, SlamParams{}.imu_tilt_weight);
+  EXPECT_DOUBLE_EQ(load_hmap(path).params().slam.level_max_slope, SlamParams{}.level_max_slope);
   j.erase("slam.coarse_rotation");
   p.json = j.dump();
   std::ofstream(path, std::ios::binary | std::ios::trunc) << assemble(p);

@@ -185,6 +185,8 @@ std::vector<ParamRef> param_refs(Params& p) {
                   s.attitude_min_lever, above(0.0, 100.0)));
   r.push_back(ref("slam.level_prior", "-", "pull of the attitude fit toward a level floor (fraction of the map's)",
                   s.level_prior, closed(0.0, 100.0)));
+  r.push_back(ref("slam.level_max_slope", "rad", "a scan floor tilted more than this is a slope: not levelled",
+                  s.level_max_slope, closed(0.0, 1.2)));
   r.push_back(ref("slam.max_floor_tilt", "rad", "steepest plane taken for a scan's floor",
                   s.max_floor_tilt, closed(0.0, 1.2)));
   r.push_back(ref("slam.imu_gravity_time_constant", "s",

@@ -95,6 +95,8 @@ struct SlamParams {
                                            ///< that tilt is not observable and keeps its guess
   double level_prior = 0.02;               ///< [-] pull of the attitude fit toward a level floor, as a fraction
                                            ///< of the map's tilt information (0 = the map alone)
+  double level_max_slope = 0.07;           ///< [rad] a scan floor the estimate tilts more than this (~4°) is
+                                           ///< a slope (ramp), not a level floor: level_prior does not pull it
   double max_floor_tilt = 0.35;            ///< [rad] steepest plane taken for a scan's floor (~20°)
   // The IMU prior (slam/imu.hpp), when the recording has an IMU.
   double imu_gravity_time_constant = 1.0;  ///< [s] τ of the complementary filter: the accelerometer's

@@ -181,6 +181,7 @@ AttitudeFit AttitudeRefiner::refine(const ScanHVoxels& scan_level, const HMap& m
     Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
     Eigen::Vector3d g = Eigen::Vector3d::Zero();
     double r2 = 0.0;
+    double agreement = 0.0;
     std::size_t pairs = 0;
     for (const Sample& smp : samples_) {
       const Eigen::Vector3d q = R * smp.p;  // relative to the sensor, corrected
@@ -207,11 +208,13 @@ AttitudeFit AttitudeRefiner::refine(const ScanHVoxels& scan_level, const HMap& m
       H.noalias() += w * J * J.transpose();
       g.noalias() += w * J * r;
       r2 += r * r;
+      agreement += std::max(0.0, 1.0 - (r / gate) * (r / gate));
       ++pairs;
     }
     fit.iterations = it + 1;
     fit.surfaces = pairs;
     fit.rms = pairs > 0 ? std::sqrt(r2 / static_cast<double>(pairs)) : 0.0;
+    fit.agreement = agreement;
     if (pairs < min_pairs) {
       fit.observable = {false, false, false};
       break;
@@ -227,7 +230,11 @@ AttitudeFit AttitudeRefiner::refine(const ScanHVoxels& scan_level, const HMap& m
       H(1, 1) += lambda * v.z() * v.z();
       g(1) += lambda * (-v.z()) * v.y();
     };
-    if (floor_level && sp.level_prior > 0.0) pull_vertical(*floor_level, sp.level_prior * 0.5 * (H(1, 1) + H(2, 2)));
+    // A floor that the estimate tilts by more than slam.level_max_slope is a slope (a ramp), not a
+    // level floor: it is not levelled.
+    if (floor_level && sp.level_prior > 0.0 && (R * *floor_level).z() >= std::cos(sp.level_max_slope)) {
+      pull_vertical(*floor_level, sp.level_prior * 0.5 * (H(1, 1) + H(2, 2)));
+    }
     if (gravity_level) pull_vertical(*gravity_level, sp.imu_tilt_weight * 0.5 * (H(1, 1) + H(2, 2)));
     // Solve for the observable axes only; the others keep their guess.
     Eigen::Vector3d step = Eigen::Vector3d::Zero();

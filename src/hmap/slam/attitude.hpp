@@ -40,6 +40,10 @@ struct AttitudeFit {
   /// is not keeps its guess.
   std::array<bool, 3> observable{false, false, false};
   double yaw_change = 0.0;    ///< [rad] the yaw the fitted tilt implies (second order; add it to the planar yaw)
+  /// How well the fitted attitude puts the scan's surfaces on the map's: Σ max(0, 1 − (r / gate)²)
+  /// over the pairs of the last iteration (gate: its pairing gate). Compares tilt hypotheses of one
+  /// scan (HmapSlam): the right tilt pairs more surfaces, closer.
+  double agreement = 0.0;
 };
 
 /// The upward unit normal of the scan's dominant floor, in the frame its HVoxels were built in

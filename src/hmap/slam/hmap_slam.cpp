@@ -1,6 +1,7 @@
 #include "hmap/slam/hmap_slam.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <numbers>
 
@@ -180,6 +181,40 @@ SlamStep HmapSlam::process(const ScanInput& input) {
     if (!floor_sensor) return std::nullopt;
     return Eigen::Vector3d(level_rotation(a) * *floor_sensor);
   };
+  // Two tilt hypotheses. The floor prediction takes this scan's dominant floor for the surface the
+  // last scan's was; where the ground changes slope (a ramp's foot or top), or another floor
+  // dominates (the street ahead seen from the ramp), it turns the scan by the slope: 8 deg on the
+  // simulated parking ramp, beyond what the map fit's gate bridges, and the map then keeps that
+  // tilt. When the prediction and the last tilt differ, both are fitted to the map at the planar
+  // guess and the one whose surfaces agree better with the map's goes on.
+  if (!given && !imu_tilt && scans_ > 0 && floor_sensor) {
+    // The hypotheses: the floor's prediction, the last tilt, and the tilt that levels this scan's
+    // dominant floor (the floor the sensor stands on at a ramp's top, when it dominates).
+    std::array<Attitude, 3> hypotheses{attitude, last_attitude_, tilt_aligning(*floor_sensor, Eigen::Vector3d::UnitZ(), attitude)};
+    std::size_t count = 1;
+    for (std::size_t h = 1; h < hypotheses.size(); ++h) {
+      bool distinct = true;
+      for (std::size_t j = 0; j < count; ++j) distinct = distinct && moved(hypotheses[h], hypotheses[j]);
+      if (distinct) hypotheses[count++] = hypotheses[h];
+    }
+    if (count > 1) {
+      double best = -1.0;
+      std::size_t winner = 0;
+      for (std::size_t h = 0; h < count; ++h) {
+        level_hvoxelizer_.build(points_sensor, compose(PlanarPose{}, hypotheses[h]), scan_level_);
+        const AttitudeFit fit = refiner_.refine(scan_level_, mapper_.map(), step.guess.x, step.guess.y, step.guess.yaw,
+                                                hypotheses[h], floor_in_level(hypotheses[h]), std::nullopt);
+        if (fit.agreement > best) {
+          best = fit.agreement;
+          winner = h;
+        }
+      }
+      step.tilt_hypotheses = static_cast<int>(count);
+      step.tilt_from_floor = winner == 0;
+      attitude = hypotheses[winner];
+      built = winner + 1 == count;  // scan_level_ holds the last hypothesis's HVoxels
+    }
+  }
   if (scans_ > 0) {
     // The second scan has no motion prior (constant velocity predicts standing still): search.
     const auto search = scans_ == 1 && !guess ? CoarseSearch::kAlways : CoarseSearch::kWhenFailed;

@@ -53,6 +53,10 @@ struct SlamStep {
   bool deskewed = false;       ///< the points were moved to the reference time
   Twist sweep_velocity;        ///< the velocity they were moved with
   bool imu_used = false;       ///< an IMU prior shaped the tilt and the rotation guess
+  /// Tilt hypotheses compared against the map (2: the floor's prediction and the last tilt
+  /// differed; 0 or 1: there was one) and whether the floor's won.
+  int tilt_hypotheses = 0;
+  bool tilt_from_floor = true;
 };
 
 /// The scan-to-map SLAM loop. Not thread-safe; one instance per sequence.
