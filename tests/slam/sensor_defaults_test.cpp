@@ -86,5 +86,30 @@ TEST(SensorDefaults, NoRingsNoChange) {
   EXPECT_TRUE(adapt_to_sensor(p, outdoor_preset(), profile_scan(dense)).empty());
 }
 
+TEST(SensorDefaults, PresetFromTheSensorsReach) {
+  // Spinning LiDARs on the parking street see past the indoor preset's 5 m: outdoor. A Kinect in
+  // the simulated office sees nothing beyond about 4.5 m: indoor. An empty scan: outdoor.
+  std::string why;
+  EXPECT_EQ(preset_for_sensor(profile_scan(scan_of(sim::SpinningLidarParams::vlp16())), &why), "outdoor");
+  EXPECT_NE(why.find("beyond the indoor preset's 5 m"), std::string::npos) << why;
+  EXPECT_EQ(preset_for_sensor(profile_scan(scan_of(sim::SpinningLidarParams::hdl64e()))), "outdoor");
+  const sim::Scene office = sim::make_office_scene();
+  sim::DepthCamera kinect(sim::DepthCameraParams::kinect_one());
+  Pose T = Pose::Identity();
+  T.translation() = Eigen::Vector3d(1.0, 1.0, 0.5);
+  const SensorProfile k = profile_scan(kinect.scan(office, T, 0.0).points_sensor);
+  EXPECT_LT(k.range_p95, 5.0);
+  EXPECT_EQ(preset_for_sensor(k, &why), "indoor");
+  EXPECT_NE(why.find("inside the indoor preset's 5 m"), std::string::npos) << why;
+  EXPECT_EQ(preset_for_sensor(profile_scan(PointCloud{}), &why), "outdoor");
+  EXPECT_EQ(why, "the first scan has no point");
+  // Hand-made: 95 % of 100 points at 4 m and 5 at 20 m is indoor; 90 % at 4 m is outdoor.
+  PointCloud near_far;
+  for (int i = 0; i < 100; ++i) near_far.emplace_back(i < 96 ? 4.0F : 20.0F, 0.0F, 0.0F);
+  EXPECT_EQ(preset_for_sensor(profile_scan(near_far)), "indoor");
+  for (int i = 86; i < 96; ++i) near_far[static_cast<std::size_t>(i)] = Point3f(20.0F, 0.0F, 0.0F);
+  EXPECT_EQ(preset_for_sensor(profile_scan(near_far)), "outdoor");
+}
+
 }  // namespace
 }  // namespace hmap

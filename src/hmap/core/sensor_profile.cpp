@@ -69,6 +69,18 @@ SensorProfile profile_scan(std::span<const Point3f> points_sensor) {
   return out;
 }
 
+std::string preset_for_sensor(const SensorProfile& sensor, std::string* reason) {
+  const double indoor_reach = indoor_preset().map.max_range;
+  const bool indoor = sensor.points > 0 && sensor.range_p95 <= indoor_reach;
+  if (reason != nullptr) {
+    *reason = sensor.points == 0
+                  ? std::string("the first scan has no point")
+                  : format("95 %% of the first scan's points within %.1f m, %s the indoor preset's %.0f m range",
+                           sensor.range_p95, indoor ? "inside" : "beyond", indoor_reach);
+  }
+  return indoor ? "indoor" : "outdoor";
+}
+
 std::vector<ChosenDefault> adapt_to_sensor(Params& p, const Params& preset_params, const SensorProfile& sensor) {
   std::vector<ChosenDefault> chosen;
   if (sensor.rings > 0 && p.map.point_distance_threshold == preset_params.map.point_distance_threshold) {
