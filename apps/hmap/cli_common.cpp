@@ -18,13 +18,15 @@
 #include "hmap/io/poses.hpp"
 #include "hmap/io/rgbd.hpp"
 #include "hmap/io/vtk.hpp"
+#include "hmap/core/sensor_profile.hpp"
 
 namespace hmap::cli {
 
 void ParamOptions::add_to(CLI::App& app) {
-  app.add_option("--preset", preset, "Parameter preset of the paper's section V")
-      ->check(CLI::IsMember({"indoor", "outdoor"}))
-      ->capture_default_str();
+  app.add_option("--preset", preset,
+                 "Parameter preset of the paper's section V (default: map and slam choose indoor when 95 % of the "
+                 "first scan lies within the indoor preset's 5 m reach, else outdoor)")
+      ->check(CLI::IsMember({"indoor", "outdoor"}));
   app.add_option("--config", config, "YAML parameter file applied on top of the preset");
   app.add_option("--set", overrides, "Override one parameter, NAME=VALUE (repeatable; see hmap params)");
   app.add_option("--cell", cell, "Grid cell size [m] (map.cell_size)");
@@ -32,8 +34,17 @@ void ParamOptions::add_to(CLI::App& app) {
   app.add_option("--max-range", max_range, "Drop points farther than this from the sensor [m]");
 }
 
-Params ParamOptions::resolve() const {
-  return resolve_params(ParamSources{preset, config, overrides, cell, min_range, max_range});
+Params ParamOptions::resolve(const std::string& fallback) const {
+  return resolve_params(ParamSources{preset.empty() ? fallback : preset, config, overrides, cell, min_range, max_range});
+}
+
+std::string ParamOptions::preset_for(std::span<const Point3f> first_scan, std::string& chosen) const {
+  chosen.clear();
+  if (!preset.empty()) return preset;
+  std::string why;
+  const std::string name = preset_for_sensor(profile_scan(first_scan), &why);
+  chosen = format("preset %s (%s)", name.c_str(), why.c_str());
+  return name;
 }
 
 ScanSource ScanSource::open(const std::string& kitti_dir, const std::vector<std::string>& files,

@@ -8,6 +8,7 @@
 #include <memory>
 #include <new>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -21,7 +22,9 @@ namespace hmap::cli {
 
 /// Options that set parameters, applied in this order: preset, config file, --set, named flags.
 struct ParamOptions {
-  std::string preset = "outdoor";
+  /// Empty: not named. `hmap map` and `hmap slam` then choose it from the first scan's reach
+  /// (preset_for_sensor); other commands take "outdoor".
+  std::string preset;
   std::string config;
   std::vector<std::string> overrides;
   std::optional<double> cell;
@@ -29,7 +32,11 @@ struct ParamOptions {
   std::optional<double> max_range;
 
   void add_to(CLI::App& app);
-  [[nodiscard]] Params resolve() const;
+  /// The parameters, from `fallback` where no preset was named.
+  [[nodiscard]] Params resolve(const std::string& fallback = "outdoor") const;
+  /// The preset the parameters start from: the named one, else the first scan's choice
+  /// (preset_for_sensor), with a line for the summary in `chosen`.
+  [[nodiscard]] std::string preset_for(std::span<const Point3f> first_scan, std::string& chosen) const;
 };
 
 /// The sensor inputs beyond scan files, shared by every command that reads scans: RGB-D folders

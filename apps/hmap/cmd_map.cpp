@@ -4,6 +4,7 @@
 
 #include "cli_common.hpp"
 #include "hmap/core/format.hpp"
+#include "hmap/core/sensor_profile.hpp"
 #include "hmap/io/atomic_file.hpp"
 #include "hmap/io/hmap_file.hpp"
 #include "hmap/maps/mapper.hpp"
@@ -25,9 +26,26 @@ struct MapOptions {
 };
 
 void run_map(const MapOptions& o) {
-  const Params params = o.params.resolve();
+  Params params = o.params.resolve();  // from the named preset (or outdoor): bad values refused first
   check_output_file(o.out);  // before the work: a missing folder was found after mapping every scan
   const ScanSource src = ScanSource::open(o.sensors, o.kitti, o.files, o.poses, o.scans, /*poses_required=*/true);
+  // Defaults the first scan can tell, as hmap slam takes them: the preset from the sensor's reach
+  // when none is named, the height gap from a spinning LiDAR's ring spacing.
+  std::string chosen_text;
+  if (!src.scans.empty()) {
+    CloudReadStats first_stats;
+    const PointCloud first = src.read(0, first_stats);
+    std::string preset_line;
+    const std::string preset_name = o.params.preset_for(first, preset_line);
+    if (!preset_line.empty()) {
+      params = o.params.resolve(preset_name);
+      chosen_text += " " + preset_line + ".";
+    }
+    for (const ChosenDefault& c : adapt_to_sensor(params, hmap::preset(preset_name), profile_scan(first))) {
+      chosen_text += format(" %s = %g (%s).", c.name.c_str(), c.value, c.reason.c_str());
+    }
+    validate(params);
+  }
   // The hybrid map of section IV by default: the HMAP, the ground patches of Alg. 4 and the 2D
   // grid of eq. (3)-(4), all saved; --hvoxels-only keeps section III alone (faster).
   HybridMapper hybrid(params);
@@ -92,6 +110,7 @@ void run_map(const MapOptions& o) {
       st.cells, st.hvoxels, human_bytes(static_cast<double>(st.memory_bytes)).c_str(), params.map.cell_size,
       total.extrusion.removed, o.out.c_str(),
       human_bytes(static_cast<double>(std::filesystem::file_size(o.out))).c_str());
+  if (!chosen_text.empty()) std::printf("Chosen from the first scan:%s\n", chosen_text.c_str());
   if (!o.hvoxels_only) {
     std::size_t occupied = 0, free_cells = 0;
     hybrid.grid().for_each_cell([&](const CellKey&, float l) { (l > 0.0F ? occupied : free_cells) += 1; });

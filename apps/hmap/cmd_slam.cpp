@@ -75,13 +75,18 @@ std::optional<ImuSamples> load_imu(const SlamOptions& o, std::string& from) {
 }
 
 void run_slam(const SlamOptions& o) {
-  Params params = o.params.resolve();
-  if (!o.imu_rpy.empty()) {
-    params.slam.imu_roll = o.imu_rpy[0];
-    params.slam.imu_pitch = o.imu_rpy[1];
-    params.slam.imu_yaw = o.imu_rpy[2];
-    validate(params);
-  }
+  // From the named preset (or outdoor) first, so that a bad value is refused before any work.
+  const auto resolved = [&o](const std::string& preset_name) {
+    Params p = o.params.resolve(preset_name);
+    if (!o.imu_rpy.empty()) {
+      p.slam.imu_roll = o.imu_rpy[0];
+      p.slam.imu_pitch = o.imu_rpy[1];
+      p.slam.imu_yaw = o.imu_rpy[2];
+      validate(p);
+    }
+    return p;
+  };
+  Params params = resolved("outdoor");
   prepare_output_folder(o.out);  // before the work
   const ScanSource src = ScanSource::open(o.sensors, o.kitti, o.files, "", o.scans, /*poses_required=*/false);
   // Defaults the first scan can tell (the ring spacing), for parameters left at the preset's value.
@@ -91,8 +96,15 @@ void run_slam(const SlamOptions& o) {
   std::string chosen_text;
   if (!src.scans.empty()) {
     first = src.read(0, read_stats, &first_times);
+    // No preset named: the sensor's reach chooses it (a depth camera's 5 m: indoor).
+    std::string preset_line;
+    const std::string preset_name = o.params.preset_for(*first, preset_line);
+    if (!preset_line.empty()) {
+      params = resolved(preset_name);
+      chosen_text += " " + preset_line + ".";
+    }
     const SensorProfile sensor = profile_scan(*first);
-    for (const ChosenDefault& c : adapt_to_sensor(params, hmap::preset(o.params.preset), sensor)) {
+    for (const ChosenDefault& c : adapt_to_sensor(params, hmap::preset(preset_name), sensor)) {
       chosen_text += format(" %s = %g (%s).", c.name.c_str(), c.value, c.reason.c_str());
     }
     validate(params);

@@ -102,13 +102,15 @@ TEST(SensorDefaults, PresetFromTheSensorsReach) {
   EXPECT_EQ(preset_for_sensor(k, &why), "indoor");
   EXPECT_NE(why.find("inside the indoor preset's 5 m"), std::string::npos) << why;
   EXPECT_EQ(preset_for_sensor(profile_scan(PointCloud{}), &why), "outdoor");
-  EXPECT_EQ(why, "the first scan has no point");
-  // Hand-made: 95 % of 100 points at 4 m and 5 at 20 m is indoor; 90 % at 4 m is outdoor.
+  EXPECT_EQ(why, "the first scan has 0 points, too few to tell the sensor");
+  // Hand-made: 95 % of 1000 points at 4 m and the rest at 20 m is indoor; 90 % at 4 m is outdoor.
   PointCloud near_far;
-  for (int i = 0; i < 100; ++i) near_far.emplace_back(i < 96 ? 4.0F : 20.0F, 0.0F, 0.0F);
+  for (int i = 0; i < 1000; ++i) near_far.emplace_back(i < 960 ? 4.0F : 20.0F, 0.0F, 0.0F);
   EXPECT_EQ(preset_for_sensor(profile_scan(near_far)), "indoor");
-  for (int i = 86; i < 96; ++i) near_far[static_cast<std::size_t>(i)] = Point3f(20.0F, 0.0F, 0.0F);
+  for (int i = 860; i < 960; ++i) near_far[static_cast<std::size_t>(i)] = Point3f(20.0F, 0.0F, 0.0F);
   EXPECT_EQ(preset_for_sensor(profile_scan(near_far)), "outdoor");
+  // 999 points at 1 m (a pose file read as a scan is one): too few to tell, outdoor.
+  EXPECT_EQ(preset_for_sensor(profile_scan(PointCloud(999, Point3f(1.0F, 0.0F, 0.0F)))), "outdoor");
 }
 
 }  // namespace

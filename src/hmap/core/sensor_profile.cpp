@@ -70,11 +70,14 @@ SensorProfile profile_scan(std::span<const Point3f> points_sensor) {
 }
 
 std::string preset_for_sensor(const SensorProfile& sensor, std::string* reason) {
+  // Fewer points than any real scan has (a depth image, a LiDAR sweep: 10^4 and more) tell
+  // nothing about the sensor: a pose file given as a scan is one point at 1 m.
+  constexpr std::size_t kMinPoints = 1000;
   const double indoor_reach = indoor_preset().map.max_range;
-  const bool indoor = sensor.points > 0 && sensor.range_p95 <= indoor_reach;
+  const bool indoor = sensor.points >= kMinPoints && sensor.range_p95 <= indoor_reach;
   if (reason != nullptr) {
-    *reason = sensor.points == 0
-                  ? std::string("the first scan has no point")
+    *reason = sensor.points < kMinPoints
+                  ? format("the first scan has %zu points, too few to tell the sensor", sensor.points)
                   : format("95 %% of the first scan's points within %.1f m, %s the indoor preset's %.0f m range",
                            sensor.range_p95, indoor ? "inside" : "beyond", indoor_reach);
   }
