@@ -29,14 +29,9 @@ namespace hmap::cli {
 
 namespace {
 
-struct CompareOptions {
+struct CompareOptions : InputOptions {
   ParamOptions params;
-  ScanSourceOptions sensors;
-  std::string kitti;
-  std::vector<std::string> files;
-  std::string poses;
   std::string truth;
-  std::size_t scans = 0;
   std::optional<double> robot_height;
   std::optional<double> elevation_ceiling;
   int max_pixels = 900;
@@ -93,7 +88,7 @@ nlohmann::json grid_json(const GridScores& s) {
 
 void run_compare(const CompareOptions& o) {
   const Params params = o.params.resolve();
-  const ScanSource src = ScanSource::open(o.sensors, o.kitti, o.files, o.poses, o.scans, /*poses_required=*/true);
+  const ScanSource src = o.open_inputs(/*poses_required=*/true);
   if (src.scans.empty()) throw Error("no scans to compare on");
   const PoseList& poses = *src.T_map_scan;
   prepare_output_folder(o.out);
@@ -344,10 +339,7 @@ void run_compare(const CompareOptions& o) {
 void add_compare_command(CLI::App& app) {
   auto opts = std::make_shared<CompareOptions>();
   auto* cmd = app.add_subcommand("compare", "Build HMAP, the 2.5D map of [9] and OctoMap from the same scans; pictures and tables");
-  cmd->add_option("--kitti", opts->kitti, "KITTI sequence folder (velodyne/*.bin, poses.txt)");
-  cmd->add_option("scans", opts->files, "Scan files, in order (with --poses)");
-  cmd->add_option("--poses", opts->poses, "Poses T_map_scan, KITTI or TUM format");
-  cmd->add_option("--scans", opts->scans, "Use only the first N scans")->check(kCount);
+  opts->add_input_options(*cmd, kKnownPosesHelp);
   cmd->add_option("--truth", opts->truth, "Folder with truth.ply and truth_seen.ply (a `hmap simulate` output)");
   cmd->add_option("--robot-height", opts->robot_height, "[m] for the true traversability (default occupancy.z_plus)");
   cmd->add_option("--elevation-ceiling", opts->elevation_ceiling,
@@ -359,7 +351,6 @@ void add_compare_command(CLI::App& app) {
                 "overhang_free, accuracy, ...) instead of the report");
   cmd->add_option("--out,-o", opts->out, "Output folder")->required();
   opts->params.add_to(*cmd);
-  opts->sensors.add_to(*cmd);
   cmd->callback([opts] { run_compare(*opts); });
 }
 
