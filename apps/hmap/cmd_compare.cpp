@@ -175,12 +175,12 @@ void run_compare(const CompareOptions& o) {
   const TopViewport vp = viewport_over(st.bounds.min().x(), st.bounds.min().y(), st.bounds.max().x(),
                                        st.bounds.max().y(), params.map.cell_size, o.max_pixels);
   const HMap display_25d = elevation_display(elevation.map());
-  const RgbImage top = side_by_side({{"I POINT CLOUD", render_points_top(cloud_map, range, vp)},
+  const RgbImage top = side_by_side({{"I  point cloud", render_points_top(cloud_map, range, vp)},
                                      {"II HMAP", render_top_in(hmap_cut, range, vp)},
-                                     {"III HMAP 2D", render_occupancy(hybrid.grid(), vp)},
-                                     {"IIIB HMAP 2D FROM MAP", render_occupancy(grid_final, vp)},
+                                     {"III  HMAP 2D grid, kept scan by scan", render_occupancy(hybrid.grid(), vp)},
+                                     {"IIIb  HMAP 2D grid judged from the final map", render_occupancy(grid_final, vp)},
                                      {"IV 2.5D", render_top_in(display_25d, range, vp)},
-                                     {"V 2.5D 2D", render_occupancy(grid_25d, vp)}});
+                                     {"V  2D grid of the 2.5D map", render_occupancy(grid_25d, vp)}});
   const auto out = [&](const char* name) { return (std::filesystem::path(o.out) / name).string(); };
   write_png(out("compare_top.png"), top);
   const int oblique_px = std::max(300, o.max_pixels * 2 / 3);
@@ -318,7 +318,7 @@ void run_compare(const CompareOptions& o) {
           "above the local ground (HMAP's ground patches) make a cell occupied, free leaves there free.\n";
   }
   md << format(
-                "\nPictures: compare_top.png (I point cloud, II HMAP, III HMAP 2D scan by scan, IIIB HMAP 2D judged from "
+                "\nPictures: compare_top.png (I point cloud, II HMAP, III HMAP 2D scan by scan, IIIb HMAP 2D judged from "
                 "the final map, IV 2.5D, V 2.5D 2D; 2D grids as "
                 "map_server reads them: free white, occupied black, unknown grey) and compare_oblique.png. The 3D "
                 "views leave out what lies above z = %.2f m (the 2.5D map's cut, %.2f m above the sensor's median "

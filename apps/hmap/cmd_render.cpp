@@ -96,22 +96,20 @@ void run_render(const RenderOptions& o) {
   const std::uint8_t colours[4][3] = {{255, 255, 255}, {255, 40, 40}, {255, 0, 255}, {255, 160, 0}};
   std::vector<LegendEntry> legend;
   if (on_grid) {
-    legend = {{255, 255, 255, "FREE"}, {0, 0, 0, "OCCUPIED"}, {205, 205, 205, "UNKNOWN"}};
+    legend = {{255, 255, 255, "free"}, {0, 0, 0, "occupied"}, {205, 205, 205, "unknown"}};
   } else {
     std::uint8_t r = 0, g = 0, b = 0;
     height_colour(0.0, r, g, b);
-    legend.push_back({r, g, b, format("%.2f M", range.z_low)});
+    legend.push_back({r, g, b, format("%.2f m", range.z_low)});
     height_colour(1.0, r, g, b);
-    legend.push_back({r, g, b, format("%.2f M", range.z_high)});
+    legend.push_back({r, g, b, format("%.2f m", range.z_high)});
   }
   for (std::size_t k = 0; k < paths.size(); ++k) {
     std::uint8_t c[3] = {colours[std::min<std::size_t>(k, 3)][0], colours[std::min<std::size_t>(k, 3)][1],
                          colours[std::min<std::size_t>(k, 3)][2]};
     if (on_grid && k == 0) c[0] = 0, c[1] = 90, c[2] = 255;
     draw_path(img, vp, paths[k], c[0], c[1], c[2]);
-    std::string name = std::filesystem::path(o.trajectories[k]).stem().string();
-    for (char& ch : name) ch = static_cast<char>(std::toupper(static_cast<unsigned char>(ch)));
-    legend.push_back({c[0], c[1], c[2], "PATH " + name.substr(0, 20)});
+    legend.push_back({c[0], c[1], c[2], "path " + std::filesystem::path(o.trajectories[k]).filename().string()});
   }
   draw_legend_and_scale(img, vp, legend);
   write_png(o.out, img);

@@ -94,7 +94,9 @@ TEST_F(FirstHourTest, EveryScanCommandSharesTheInputOptions) {
     for (const char* option : {"--kitti", "--rgbd", "--tum", "--bag", "--up", "--rotation", "--scans"}) {
       EXPECT_TRUE(has(help.out, option)) << option;
     }
-    if (std::string(command) != "bench") EXPECT_TRUE(has(help.out, "-o,--out")) << help.out;
+    if (std::string(command) != "bench") {
+      EXPECT_TRUE(has(help.out, "-o,--out")) << help.out;
+    }
   }
   // VTK scans are read by every command (the reader, not each command, knows the extension).
   std::ofstream(path("s.vtk")) << "# vtk DataFile Version 3.0\nt\nASCII\nDATASET POLYDATA\nPOINTS 3 float\n0 0 0 1 0 0 0 1 0\n";
