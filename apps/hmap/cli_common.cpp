@@ -154,11 +154,11 @@ void make_gravity_aligned(ScanSource& src, const ScanSourceOptions& o, bool rgbd
       throw Error("no floor plane found in " + std::to_string(frames) + " frames; give the up axis with --up AXIS");
     }
     T_map_world = gravity_rotation(floor.up_world);
-    src.description += format("; up from the floor plane (%.3f, %.3f, %.3f), %zu of %zu points on it", floor.up_world.x(),
+    src.description += format("%sup from the floor plane (%.3f, %.3f, %.3f), %zu of %zu points on it", src.description.empty() ? "" : "; ", floor.up_world.x(),
                   floor.up_world.y(), floor.up_world.z(), floor.inliers, floor.points);
   } else {
     T_map_world = gravity_rotation(parse_up_axis(up));
-    src.description += "; world up axis " + up;
+    src.description += (src.description.empty() ? "" : "; ") + std::string("world up axis ") + up;
   }
   for (auto& T : poses) T = T_map_world * T;
 }
