@@ -175,12 +175,12 @@ void run_compare(const CompareOptions& o) {
   const TopViewport vp = viewport_over(st.bounds.min().x(), st.bounds.min().y(), st.bounds.max().x(),
                                        st.bounds.max().y(), params.map.cell_size, o.max_pixels);
   const HMap display_25d = elevation_display(elevation.map());
-  const RgbImage top = side_by_side({{"I  point cloud", render_points_top(cloud_map, range, vp)},
+  const RgbImage top = side_by_side({{"I point cloud", render_points_top(cloud_map, range, vp)},
                                      {"II HMAP", render_top_in(hmap_cut, range, vp)},
-                                     {"III  HMAP 2D grid, kept scan by scan", render_occupancy(hybrid.grid(), vp)},
-                                     {"IIIb  HMAP 2D grid judged from the final map", render_occupancy(grid_final, vp)},
+                                     {"III HMAP 2D grid, kept scan by scan", render_occupancy(hybrid.grid(), vp)},
+                                     {"IIIb HMAP 2D grid judged from the final map", render_occupancy(grid_final, vp)},
                                      {"IV 2.5D", render_top_in(display_25d, range, vp)},
-                                     {"V  2D grid of the 2.5D map", render_occupancy(grid_25d, vp)}});
+                                     {"V 2D grid of the 2.5D map", render_occupancy(grid_25d, vp)}});
   const auto out = [&](const char* name) { return (std::filesystem::path(o.out) / name).string(); };
   write_png(out("compare_top.png"), top);
   const int oblique_px = std::max(300, o.max_pixels * 2 / 3);

@@ -168,16 +168,21 @@ void draw_line(RgbImage& image, double xa, double ya, double xb, double yb, std:
 
 RgbImage side_by_side(const std::vector<std::pair<std::string, RgbImage>>& panels) {
   constexpr int kGap = 12;
-  // Each title fitted to its panel's width: 20 px when it fits, smaller down to 11 px, then wrapped.
-  std::vector<FittedText> titles;
-  int title_h = 0;
+  // Titles fitted to their panels' widths at one common size: the largest in [11, 20] px at which
+  // every title fits on one line, else 11 px with the long ones wrapped.
+  int size = 20;
   int width = kGap;
   int height = 0;
   for (const auto& [title, img] : panels) {
-    titles.push_back(fit_text(title, img.width, 20, 11));
-    title_h = std::max(title_h, titles.back().height());
+    size = std::min(size, fit_text(title, img.width, 20, 11).pixel_height);
     width += img.width + kGap;
     height = std::max(height, img.height);
+  }
+  std::vector<FittedText> titles;
+  int title_h = 0;
+  for (const auto& [title, img] : panels) {
+    titles.push_back(fit_text(title, img.width, size, size));
+    title_h = std::max(title_h, titles.back().height());
   }
   const int top = 8 + title_h + 6;
   RgbImage out(width, height + top + kGap, 255);

@@ -93,8 +93,8 @@ void draw_legend_and_scale(RgbImage& image, const TopViewport& viewport, const s
 /// The scale bar's length [m] for a picture `width_m` wide: the largest 1, 2 or 5 × 10^k at most a fifth of it.
 [[nodiscard]] double scale_bar_length(double width_m);
 
-/// Panels side by side on white, each with its title above it, fitted to the panel's width
-/// (text.hpp: smaller, then wrapped).
+/// Panels side by side on white, each with its title above it, fitted to the panel's width at one
+/// size for all (text.hpp: smaller, then wrapped).
 [[nodiscard]] RgbImage side_by_side(const std::vector<std::pair<std::string, RgbImage>>& panels);
 
 }  // namespace hmap::cli
