@@ -11,9 +11,9 @@ DATA       ?= $(abspath ../shared/data)
 JOBS       ?= $(shell nproc)
 # A compiler cache speeds rebuilds when one is installed; nothing needs it.
 LAUNCHER   := $(if $(shell command -v ccache 2>/dev/null),-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
-DEBS := cmake ninja-build g++ pkg-config libeigen3-dev libnanoflann-dev libtbb-dev libcli11-dev \
+DEBS := cmake ninja-build g++ libeigen3-dev libnanoflann-dev libtbb-dev libcli11-dev \
         nlohmann-json3-dev libyaml-cpp-dev libzstd-dev liblzf-dev libxxhash-dev libpng-dev \
-        liboctomap-dev libgdal-dev libgtest-dev libgmock-dev libbenchmark-dev \
+        liboctomap-dev libgdal-dev libgtest-dev libbenchmark-dev libfreetype-dev fonts-dejavu-core \
         librosbag-dev libsensor-msgs-dev libnav-msgs-dev libtf2-msgs-dev python3-rosbag python3-sensor-msgs \
         python3-nav-msgs python3-tf2-msgs clang libclang-rt-14-dev
 

@@ -17,7 +17,6 @@
 #include "hmap/io/kitti.hpp"
 #include "hmap/io/poses.hpp"
 #include "hmap/io/rgbd.hpp"
-#include "hmap/io/vtk.hpp"
 #include "hmap/core/sensor_profile.hpp"
 
 namespace hmap::cli {
@@ -92,12 +91,29 @@ void ScanSourceOptions::add_to(CLI::App& app) {
   app.add_option("--up", up,
                  "Up axis of the data's world frame (x, y, z with a sign, e.g. -y), or 'floor' to estimate it from "
                  "the dominant floor plane (the default for RGB-D)");
-  app.add_option("--rotation", rotation, "Rotation T_map_world making the map frame gravity-aligned: 9 numbers, row-major");
+  // Nine tokens (as the help shows) or one quoted string split at its spaces: both work.
+  app.add_option("--rotation", rotation,
+                 "Rotation T_map_world making the map frame gravity-aligned: 9 numbers, row-major (R00 R01 ... R22)")
+      ->expected(9)
+      ->allow_extra_args(false)
+      ->delimiter(' ');
   app.add_option("--bag", bag, "ROS 1 bag (sensor_msgs/PointCloud2 + /tf or an odometry topic)");
   app.add_option("--cloud-topic", cloud_topic, "PointCloud2 topic of the bag");
   app.add_option("--pose-topic", pose_topic, "nav_msgs/Odometry (or PoseStamped) topic of the bag giving the cloud poses");
   app.add_option("--tf-frames", tf_frames, "MAP [SENSOR]: poses from /tf, map frame to the cloud's (or SENSOR) frame")
       ->expected(1, 2);
+}
+
+void InputOptions::add_input_options(CLI::App& app, const std::string& poses_help) {
+  app.add_option("--kitti", kitti, kKittiHelp);
+  app.add_option("scans", files, kScanFilesHelp);
+  if (!poses_help.empty()) app.add_option("--poses", poses, poses_help);
+  app.add_option("--scans", scans, kScanCountHelp)->check(kCount);
+  sensors.add_to(app);
+}
+
+ScanSource InputOptions::open_inputs(bool poses_required) const {
+  return ScanSource::open(sensors, kitti, files, poses, scans, poses_required);
 }
 
 namespace {
@@ -126,7 +142,9 @@ void make_gravity_aligned(ScanSource& src, const ScanSourceOptions& o, bool rgbd
   auto& poses = *src.T_map_scan;
   Pose T_map_world = Pose::Identity();
   if (!o.rotation.empty()) {
-    T_map_world = parse_rotation(o.rotation);
+    std::string joined;
+    for (const auto& token : o.rotation) joined += token + " ";
+    T_map_world = parse_rotation(joined);
   } else if (up == "floor") {
     // The cameras' (or scanners') own up vectors give the prior: −y of an optical frame, +z otherwise.
     Eigen::Vector3d prior = Eigen::Vector3d::Zero();
@@ -147,11 +165,11 @@ void make_gravity_aligned(ScanSource& src, const ScanSourceOptions& o, bool rgbd
       throw Error("no floor plane found in " + std::to_string(frames) + " frames; give the up axis with --up AXIS");
     }
     T_map_world = gravity_rotation(floor.up_world);
-    src.description += format("; up from the floor plane (%.3f, %.3f, %.3f), %zu of %zu points on it", floor.up_world.x(),
+    src.description += format("%sup from the floor plane (%.3f, %.3f, %.3f), %zu of %zu points on it", src.description.empty() ? "" : "; ", floor.up_world.x(),
                   floor.up_world.y(), floor.up_world.z(), floor.inliers, floor.points);
   } else {
     T_map_world = gravity_rotation(parse_up_axis(up));
-    src.description += "; world up axis " + up;
+    src.description += (src.description.empty() ? "" : "; ") + std::string("world up axis ") + up;
   }
   for (auto& T : poses) T = T_map_world * T;
 }
@@ -210,7 +228,7 @@ PointCloud ScanSource::read(std::size_t index, CloudReadStats& stats, std::vecto
   std::string ext = path.extension().string();
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   if (ext == ".png") throw InputError(path.string(), "", "a depth image needs its camera: use --rgbd DIR or --tum DIR");
-  PointCloud cloud = ext == ".vtk" ? read_vtk(path, &s) : read_cloud(path, &s, times_s);
+  PointCloud cloud = read_cloud(path, &s, times_s);
   stats += s;
   return cloud;
 }
@@ -250,6 +268,18 @@ void prepare_output_folder(const std::filesystem::path& dir) {
   std::filesystem::create_directories(dir, ec);
   if (ec) throw Error(dir.string() + ": cannot create the output folder (" + ec.message() + ")");
   check_output_folder(dir);
+}
+
+void check_output_extension(const std::string& path, std::initializer_list<std::string_view> extensions,
+                            const std::string& what) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  std::string names;
+  for (const std::string_view e : extensions) {
+    if (ext == e) return;
+    names += (names.empty() ? "" : " or ") + std::string(e);
+  }
+  throw Error(path + ": " + what + "; give a name ending in " + names + ", not " + (ext.empty() ? "none" : ext));
 }
 
 std::string human_bytes(double bytes) {

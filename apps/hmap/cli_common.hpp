@@ -10,6 +10,8 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <string_view>
+#include <initializer_list>
 #include <vector>
 
 #include "hmap/core/budget.hpp"
@@ -49,7 +51,7 @@ struct ScanSourceOptions {
   std::string intrinsics;             ///< fx fy cx cy or a 3x3 matrix, overriding the folder's
   std::optional<double> depth_scale;  ///< [m per depth unit]
   std::string up;                     ///< up axis of the world frame (x, -y, ...) or "floor"
-  std::string rotation;               ///< T_map_world rotation, 9 numbers row-major
+  std::vector<std::string> rotation;  ///< T_map_world rotation, 9 numbers row-major
   std::string bag;                    ///< ROS 1 bag
   std::string cloud_topic;            ///< sensor_msgs/PointCloud2 topic of the bag
   std::string pose_topic;             ///< nav_msgs/Odometry (or PoseStamped) topic of the bag
@@ -58,6 +60,14 @@ struct ScanSourceOptions {
   void add_to(CLI::App& app);
   [[nodiscard]] bool any_input() const { return !rgbd.empty() || !tum.empty() || !bag.empty(); }
 };
+
+/// Help texts of the input options, one definition for every command (tested against `--help`).
+inline constexpr const char* kKittiHelp =
+    "KITTI-layout folder: velodyne/*.bin, with poses.txt, calib.txt and times.txt when present";
+inline constexpr const char* kScanFilesHelp =
+    "Scan files, in order: .pcd .ply .bin (KITTI) .xyz .txt .csv .pts .vtk (legacy POLYDATA / UNSTRUCTURED_GRID)";
+inline constexpr const char* kKnownPosesHelp = "Poses T_map_scan, KITTI or TUM format, one per scan";
+inline constexpr const char* kScanCountHelp = "Use only the first N scans (0, the default: all of them)";
 
 /// Reads the frames of a source that is not a list of files (an RGB-D folder, a bag).
 class FrameReader {
@@ -90,6 +100,22 @@ struct ScanSource {
   std::shared_ptr<const FrameReader> frames;  ///< set for RGB-D folders and bags
   std::vector<double> stamps;                 ///< [s] per scan when the source has them (bags)
   std::string description;                    ///< e.g. "50 RGB-D frames of DIR (7-Scenes)"
+};
+
+/// The scans every scan-reading command takes, one definition of the options and their help:
+/// --kitti DIR or scan files, --poses FILE, --scans N, and the sensor inputs (RGB-D folders, bags,
+/// --up / --rotation). A command adopts them by deriving its options struct from InputOptions and
+/// calling add_input_options(); run() opens them with open_inputs().
+struct InputOptions {
+  std::string kitti;
+  std::vector<std::string> files;
+  std::string poses;
+  std::size_t scans = 0;  ///< 0: all
+  ScanSourceOptions sensors;
+
+  /// `poses_help`: what --poses means to this command; empty for a command without --poses.
+  void add_input_options(CLI::App& app, const std::string& poses_help);
+  [[nodiscard]] ScanSource open_inputs(bool poses_required) const;
 };
 
 #ifdef HMAP_HAVE_ROS
@@ -146,6 +172,12 @@ decltype(auto) for_scan(const ScanSource& src, std::size_t k, Step&& step) {
 /// Creates the output folder `dir` (and its parents) before the work, and checks that files can
 /// be written in it; hmap::Error naming it otherwise (not the standard library's message).
 void prepare_output_folder(const std::filesystem::path& dir);
+
+/// Refuses an output path whose extension (any letter case) is not one of `extensions`: `hmap map
+/// --out a.ply` wrote .hmap bytes into a.ply, and a viewer then failed on it. `what` names the
+/// what is written, e.g. "hmap map writes a .hmap map". hmap::Error otherwise, before any work.
+void check_output_extension(const std::string& path, std::initializer_list<std::string_view> extensions,
+                            const std::string& what);
 
 [[nodiscard]] std::string human_bytes(double bytes);
 [[nodiscard]] std::string human_count(double n);

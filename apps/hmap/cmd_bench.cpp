@@ -18,12 +18,8 @@ namespace hmap::cli {
 
 namespace {
 
-struct BenchOptions {
+struct BenchOptions : InputOptions {
   ParamOptions params;
-  std::string kitti;
-  std::vector<std::string> files;
-  std::string poses;
-  std::size_t scans = 0;
   bool json = false;
   bool skip_octomap = false;
   bool octomap_drop_far = false;
@@ -67,7 +63,7 @@ void print(const Result& r, bool json) {
 
 void run_bench(const BenchOptions& o) {
   const Params params = o.params.resolve();
-  ScanSource src = ScanSource::open(o.kitti, o.files, o.poses, o.scans, /*poses_required=*/false);
+  ScanSource src = o.open_inputs(/*poses_required=*/false);
   if (!src.T_map_scan) src.T_map_scan = PoseList(src.scans.size(), Pose::Identity());  // as OctoMap's side
   // Read everything first: only the map updates are timed.
   std::vector<PointCloud> clouds;
@@ -168,10 +164,7 @@ void run_bench(const BenchOptions& o) {
 void add_bench_command(CLI::App& app) {
   auto opts = std::make_shared<BenchOptions>();
   auto* cmd = app.add_subcommand("bench", "Integrate the same scans into the HMAP and into OctoMap and compare");
-  cmd->add_option("--kitti", opts->kitti, "KITTI sequence folder");
-  cmd->add_option("scans", opts->files, "Scan files instead of a KITTI folder");
-  cmd->add_option("--poses", opts->poses, "Poses (identity for every scan when absent)");
-  cmd->add_option("--scans", opts->scans, "Use only the first N scans")->check(kCount);
+  opts->add_input_options(*cmd, "Poses T_map_scan, KITTI or TUM format, one per scan (identity for every scan when absent)");
   cmd->add_flag("--json", opts->json, "One JSON object per line, one per system");
   cmd->add_flag("--hmap-only", opts->skip_octomap, "Skip the OctoMap side");
   cmd->add_option("--repeat", opts->repeat, "Runs of the HMAP side; the median counts")

@@ -29,14 +29,9 @@ namespace hmap::cli {
 
 namespace {
 
-struct CompareOptions {
+struct CompareOptions : InputOptions {
   ParamOptions params;
-  ScanSourceOptions sensors;
-  std::string kitti;
-  std::vector<std::string> files;
-  std::string poses;
   std::string truth;
-  std::size_t scans = 0;
   std::optional<double> robot_height;
   std::optional<double> elevation_ceiling;
   int max_pixels = 900;
@@ -93,7 +88,7 @@ nlohmann::json grid_json(const GridScores& s) {
 
 void run_compare(const CompareOptions& o) {
   const Params params = o.params.resolve();
-  const ScanSource src = ScanSource::open(o.sensors, o.kitti, o.files, o.poses, o.scans, /*poses_required=*/true);
+  const ScanSource src = o.open_inputs(/*poses_required=*/true);
   if (src.scans.empty()) throw Error("no scans to compare on");
   const PoseList& poses = *src.T_map_scan;
   prepare_output_folder(o.out);
@@ -180,12 +175,12 @@ void run_compare(const CompareOptions& o) {
   const TopViewport vp = viewport_over(st.bounds.min().x(), st.bounds.min().y(), st.bounds.max().x(),
                                        st.bounds.max().y(), params.map.cell_size, o.max_pixels);
   const HMap display_25d = elevation_display(elevation.map());
-  const RgbImage top = side_by_side({{"I POINT CLOUD", render_points_top(cloud_map, range, vp)},
+  const RgbImage top = side_by_side({{"I point cloud", render_points_top(cloud_map, range, vp)},
                                      {"II HMAP", render_top_in(hmap_cut, range, vp)},
-                                     {"III HMAP 2D", render_occupancy(hybrid.grid(), vp)},
-                                     {"IIIB HMAP 2D FROM MAP", render_occupancy(grid_final, vp)},
+                                     {"III HMAP 2D grid, kept scan by scan", render_occupancy(hybrid.grid(), vp)},
+                                     {"IIIb HMAP 2D grid judged from the final map", render_occupancy(grid_final, vp)},
                                      {"IV 2.5D", render_top_in(display_25d, range, vp)},
-                                     {"V 2.5D 2D", render_occupancy(grid_25d, vp)}});
+                                     {"V 2D grid of the 2.5D map", render_occupancy(grid_25d, vp)}});
   const auto out = [&](const char* name) { return (std::filesystem::path(o.out) / name).string(); };
   write_png(out("compare_top.png"), top);
   const int oblique_px = std::max(300, o.max_pixels * 2 / 3);
@@ -323,7 +318,7 @@ void run_compare(const CompareOptions& o) {
           "above the local ground (HMAP's ground patches) make a cell occupied, free leaves there free.\n";
   }
   md << format(
-                "\nPictures: compare_top.png (I point cloud, II HMAP, III HMAP 2D scan by scan, IIIB HMAP 2D judged from "
+                "\nPictures: compare_top.png (I point cloud, II HMAP, III HMAP 2D scan by scan, IIIb HMAP 2D judged from "
                 "the final map, IV 2.5D, V 2.5D 2D; 2D grids as "
                 "map_server reads them: free white, occupied black, unknown grey) and compare_oblique.png. The 3D "
                 "views leave out what lies above z = %.2f m (the 2.5D map's cut, %.2f m above the sensor's median "
@@ -344,10 +339,7 @@ void run_compare(const CompareOptions& o) {
 void add_compare_command(CLI::App& app) {
   auto opts = std::make_shared<CompareOptions>();
   auto* cmd = app.add_subcommand("compare", "Build HMAP, the 2.5D map of [9] and OctoMap from the same scans; pictures and tables");
-  cmd->add_option("--kitti", opts->kitti, "KITTI sequence folder (velodyne/*.bin, poses.txt)");
-  cmd->add_option("scans", opts->files, "Scan files, in order (with --poses)");
-  cmd->add_option("--poses", opts->poses, "Poses T_map_scan, KITTI or TUM format");
-  cmd->add_option("--scans", opts->scans, "Use only the first N scans")->check(kCount);
+  opts->add_input_options(*cmd, kKnownPosesHelp);
   cmd->add_option("--truth", opts->truth, "Folder with truth.ply and truth_seen.ply (a `hmap simulate` output)");
   cmd->add_option("--robot-height", opts->robot_height, "[m] for the true traversability (default occupancy.z_plus)");
   cmd->add_option("--elevation-ceiling", opts->elevation_ceiling,
@@ -359,7 +351,6 @@ void add_compare_command(CLI::App& app) {
                 "overhang_free, accuracy, ...) instead of the report");
   cmd->add_option("--out,-o", opts->out, "Output folder")->required();
   opts->params.add_to(*cmd);
-  opts->sensors.add_to(*cmd);
   cmd->callback([opts] { run_compare(*opts); });
 }
 

@@ -187,7 +187,7 @@ void add_experiment_command(CLI::App& app) {
   auto opts = std::make_shared<ExperimentOptions>();
   auto* cmd = app.add_subcommand("experiment", "Reproduce a seed paper's experiment in the simulator (pvox-boxes)");
   cmd->add_option("name", opts->name, "pvox-boxes")->required()->check(CLI::IsMember({"pvox-boxes"}));
-  cmd->add_option("--out", opts->out, "Output folder")->required();
+  cmd->add_option("--out,-o", opts->out, "Output folder")->required();
   cmd->add_option("--seed", opts->seed, "Seed of the placement errors and the sensor noise")->check(kCount)->capture_default_str();
   cmd->add_flag("--quick", opts->quick, "Coarser scans (1° beams, 61 sweep steps) for a fast run");
   cmd->add_flag("--no-free-space", opts->no_free_space, "Count hits only (no misses along the rays)");

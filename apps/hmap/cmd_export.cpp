@@ -112,6 +112,26 @@ GridChoice choose_grid(MapFile& file, const ExportOptions& o) {
   return {std::move(*file.grid), file.ground, "the map's own 2D grid (kept scan by scan)"};
 }
 
+/// The free space an OctoMap user can plan in: where the exported 2D grid is free by OctoMap's own
+/// rule (p < 0.5, as OcTree::isNodeOccupied reads the leaves), the band from the local ground plane
+/// up to occupancy.z_plus above it (the robot's height, which eq. (4) judged free). Cells without a
+/// ground patch within reach are left unknown.
+std::vector<FreeBand> free_bands(const GridChoice& choice, const Params& params) {
+  std::vector<FreeBand> bands;
+  if (choice.ground.empty()) return bands;
+  const TraversabilityLayers layers = traversability(choice.grid, GroundModel(choice.ground), TraversabilityParams{});
+  choice.grid.for_each_cell([&](const CellKey& key, float l) {
+    if (!(l < 0.0F)) return;
+    const std::int64_t col = static_cast<std::int64_t>(key.i) - layers.i_min;
+    const std::int64_t row = static_cast<std::int64_t>(key.j) - layers.j_min;
+    if (col < 0 || row < 0 || col >= layers.width || row >= layers.height) return;
+    const float z = layers.ground_z[layers.index(static_cast<std::int32_t>(col), static_cast<std::int32_t>(row))];
+    if (std::isnan(z)) return;
+    bands.push_back({key, static_cast<double>(z), static_cast<double>(z) + params.occupancy.z_plus});
+  });
+  return bands;
+}
+
 /// --costmap and --geotiff: the traversability layers of the chosen grid.
 void export_traversability(const GridChoice& choice, const ExportOptions& o) {
   TraversabilityParams tp = o.traversability;
@@ -152,6 +172,9 @@ void run_export(const ExportOptions& o) {
     throw Error("--ground-iterations = " + std::to_string(o.ground_iterations) + " is out of its range [1, 100000]");
   }
   // Every output checked before the map is read and the work done.
+  if (!o.ply.empty()) check_output_extension(o.ply, {".ply"}, "--ply writes a PLY file");
+  if (!o.bt.empty()) check_output_extension(o.bt, {".bt"}, "--bt writes an OctoMap binary tree");
+  if (!o.geotiff.empty()) check_output_extension(o.geotiff, {".tif", ".tiff"}, "--geotiff writes a GeoTIFF");
   if (!o.ply.empty()) check_output_file(o.ply);
   if (!o.bt.empty()) check_output_file(o.bt);
   if (!o.pgm.empty()) {
@@ -163,8 +186,12 @@ void run_export(const ExportOptions& o) {
   if (!o.geotiff.empty()) check_output_file(o.geotiff);
   MapFile file = load_map_file(o.map);
   const HMap& map = file.map;
+  // The .bt's free leaves come from the exported grid when the map holds one and its ground.
+  const bool bt_free = !o.bt.empty() && file.grid && file.grid->known_cells() > 0 && !file.ground.empty();
+  std::optional<GridChoice> chosen;
+  if (!o.pgm.empty() || !o.costmap.empty() || !o.geotiff.empty() || bt_free) chosen = choose_grid(file, o);
   if (!o.pgm.empty() || !o.costmap.empty() || !o.geotiff.empty()) {
-    const GridChoice choice = choose_grid(file, o);
+    const GridChoice& choice = *chosen;
     if (!o.pgm.empty()) {
       write_pgm_map(o.pgm, choice.grid);
       const auto [occupied, free_cells] = count_classes(choice.grid);
@@ -176,8 +203,14 @@ void run_export(const ExportOptions& o) {
   }
   if (o.ply.empty() && o.bt.empty()) return;
   if (!o.bt.empty()) {
-    const std::size_t leaves = write_octomap_bt(o.bt, map, memory_budget());
-    std::printf("wrote %zu occupied OctoMap leaves (resolution %.3f m) to %s\n", leaves, map.cell_size(), o.bt.c_str());
+    const std::vector<FreeBand> free = chosen ? free_bands(*chosen, map.params()) : std::vector<FreeBand>{};
+    const OctomapExportStats bt = write_octomap_bt(o.bt, map, free, memory_budget());
+    std::printf("wrote %zu occupied and %zu free voxels of %.3f m to %s: %zu OctoMap leaves after pruning%s\n",
+                bt.occupied_voxels, bt.free_voxels, map.cell_size(), o.bt.c_str(), bt.leaves,
+                chosen ? format("; free: the 2D grid's free cells from the ground up to %.2f m (occupancy.z_plus)",
+                                map.params().occupancy.z_plus)
+                             .c_str()
+                       : "; no free leaves: the map holds no 2D grid and ground patches (built with --hvoxels-only)");
     if (o.ply.empty()) return;
   }
   if (o.points) {

@@ -14,21 +14,17 @@ namespace hmap::cli {
 
 namespace {
 
-struct MapOptions {
+struct MapOptions : InputOptions {
   ParamOptions params;
-  ScanSourceOptions sensors;
-  std::string kitti;
-  std::vector<std::string> files;
-  std::string poses;
-  std::size_t scans = 0;
   std::string out;
   bool hvoxels_only = false;
 };
 
 void run_map(const MapOptions& o) {
   Params params = o.params.resolve();  // from the named preset (or outdoor): bad values refused first
+  check_output_extension(o.out, {".hmap"}, "hmap map writes a .hmap map");
   check_output_file(o.out);  // before the work: a missing folder was found after mapping every scan
-  const ScanSource src = ScanSource::open(o.sensors, o.kitti, o.files, o.poses, o.scans, /*poses_required=*/true);
+  const ScanSource src = o.open_inputs(/*poses_required=*/true);
   // Defaults the first scan can tell, as hmap slam takes them: the preset from the sensor's reach
   // when none is named, the height gap from a spinning LiDAR's ring spacing.
   std::string chosen_text;
@@ -125,15 +121,11 @@ void run_map(const MapOptions& o) {
 void add_map_command(CLI::App& app) {
   auto opts = std::make_shared<MapOptions>();
   auto* cmd = app.add_subcommand("map", "Build an HMAP from scans with known poses");
-  cmd->add_option("--kitti", opts->kitti, "KITTI sequence folder (velodyne/*.bin, poses.txt, calib.txt)");
-  cmd->add_option("scans", opts->files, "Scan files (.pcd .ply .bin .xyz .csv .txt .vtk), in order");
-  cmd->add_option("--poses", opts->poses, "Poses T_map_scan, KITTI or TUM format, one per scan");
-  cmd->add_option("--scans", opts->scans, "Use only the first N scans")->check(kCount);
+  opts->add_input_options(*cmd, kKnownPosesHelp);
   cmd->add_option("--out,-o", opts->out, "Output map file (.hmap)")->required();
   cmd->add_flag("--hvoxels-only", opts->hvoxels_only,
                 "Build the HMAP alone (section III), without the ground patches and the 2D grid");
   opts->params.add_to(*cmd);
-  opts->sensors.add_to(*cmd);
   cmd->callback([opts] { run_map(*opts); });
 }
 

@@ -20,11 +20,7 @@ namespace hmap::cli {
 
 namespace {
 
-struct PvoxOptions {
-  ScanSourceOptions sensors;
-  std::string kitti;
-  std::vector<std::string> files;
-  std::string poses;
+struct PvoxOptions : InputOptions {
   std::string odometry;
   std::string filter = "rbf";
   std::string measure = "auto";
@@ -36,7 +32,6 @@ struct PvoxOptions {
   double measurement_variance_mm2 = 100.0;
   bool free_space = false;
   bool raw_csv = false;
-  std::size_t max_scans = 0;
   std::string out;
 };
 
@@ -71,7 +66,7 @@ void run_pvox(const PvoxOptions& o) {
   // The folder's files are one set (the map, its CSV, pictures and summary): written into a
   // staging folder and swapped in at the end, so that a kill leaves the old set or the new one.
   check_pvox_folder(o.out);  // before the work
-  const ScanSource src = ScanSource::open(o.sensors, o.kitti, o.files, o.poses, o.max_scans, false);
+  const ScanSource src = o.open_inputs(/*poses_required=*/false);
   std::optional<PoseList> odometry;
   if (!o.odometry.empty()) {
     odometry = read_poses(o.odometry);
@@ -138,23 +133,7 @@ void write_pvox_run(const PvoxOptions& o, const ScanSource& src, pvox::PvoxMappe
   progress.finish();
   const auto& map = mapper.map();
   const PvoxFileSizes sizes = write_pvox_files(dir, "", map, o.raw_csv ? &raw_points : nullptr);
-  PvoxView view;
-  // Pictures show the bulk of the map: the 2nd–98th percentile box of the occupied voxels (a few
-  // far returns would otherwise shrink everything to dots).
-  const auto occupied_all = map.occupied();
-  if (occupied_all.size() > 100) {
-    Eigen::Vector3d lo;
-    Eigen::Vector3d hi;
-    for (int a = 0; a < 3; ++a) {
-      std::vector<double> c;
-      c.reserve(occupied_all.size());
-      for (const auto& v : occupied_all) c.push_back(v.centre[a]);
-      std::sort(c.begin(), c.end());
-      lo[a] = c[c.size() / 50] - map.edge();
-      hi[a] = c[c.size() - 1 - c.size() / 50] + map.edge();
-    }
-    view.clip = Eigen::AlignedBox3d(lo, hi);
-  }
+  const PvoxView view = bulk_view(map);
   // The gradient slice: 1 m above the lowest tenth of the occupied voxels (about the ground).
   const auto occupied = map.occupied();
   double slice = std::numeric_limits<double>::quiet_NaN();
@@ -208,9 +187,9 @@ void write_pvox_run(const PvoxOptions& o, const ScanSource& src, pvox::PvoxMappe
 void add_pvox_command(CLI::App& app) {
   auto o = std::make_shared<PvoxOptions>();
   auto* cmd = app.add_subcommand("pvox", "Build a probabilistically voxelated 3D grid map (PVOX) with Kalman-filter registration");
-  auto* kitti = cmd->add_option("--kitti", o->kitti, "KITTI-layout folder (velodyne/*.bin, poses.txt)");
-  cmd->add_option("scans", o->files, "Scan files (PCD, PLY, XYZ/CSV, KITTI .bin)")->excludes(kitti);
-  cmd->add_option("--poses", o->poses, "Measured poses (KITTI or TUM), one per scan: the filter's measurements");
+  o->add_input_options(*cmd, "Measured poses (KITTI or TUM), one per scan: the filter's measurements");
+  // The name it had before the input options were shared; --scans is the common one.
+  cmd->add_option("--max-scans", o->scans, "The same as --scans")->check(kCount);
   cmd->add_option("--odometry", o->odometry, "Odometry poses (KITTI or TUM): their relative motions are the commands");
   cmd->add_option("--filter", o->filter, "rbf (recursive) or brf (naive, first variance kept)")
       ->check(CLI::IsMember({"rbf", "brf"}))->capture_default_str();
@@ -224,9 +203,7 @@ void add_pvox_command(CLI::App& app) {
   cmd->add_option("--measurement-variance", o->measurement_variance_mm2, "[mm²] of a measured position")->capture_default_str();
   cmd->add_flag("--free-space", o->free_space, "Lower the probability of voxels that rays cross (3D DDA)");
   cmd->add_flag("--raw-csv", o->raw_csv, "Also write the registered points as points.csv (to compare sizes)");
-  cmd->add_option("--max-scans", o->max_scans, "Use at most this many scans (0: all)")->check(kCount);
-  cmd->add_option("--out", o->out, "Output folder")->required();
-  o->sensors.add_to(*cmd);
+  cmd->add_option("--out,-o", o->out, "Output folder")->required();
   cmd->callback([o] { run_pvox(*o); });
 }
 

@@ -12,6 +12,9 @@
 #include "hmap/io/poses.hpp"
 #include "hmap/occupancy/occupancy_grid.hpp"
 #include "render.hpp"
+#ifdef HMAP_HAVE_PVOX
+#include "pvox_output.hpp"
+#endif
 
 namespace hmap::cli {
 
@@ -27,6 +30,25 @@ struct RenderOptions {
   int max_pixels = 2000;
 };
 
+#ifdef HMAP_HAVE_PVOX
+/// The `.pvox` map of `hmap pvox`, drawn as that command draws it: the top view or the isometric one.
+void render_pvox(const RenderOptions& o) {
+  if (o.layer != "height") throw Error("--layer " + o.layer + ": " + o.map + " is a PVOX map, which has heights only");
+  if (!o.trajectories.empty()) throw Error("--trajectory: " + o.map + " is a PVOX map; paths are drawn over .hmap maps only");
+  if (!std::isnan(o.range.z_low) || !std::isnan(o.range.z_high)) {
+    throw Error("--z-low / --z-high: " + o.map + " is a PVOX map, coloured by its own height range");
+  }
+  const pvox::VoxelMap map = load_pvox_file(o.map);
+  if (map.occupied().empty()) throw Error(o.map + ": the map has no occupied voxel, nothing to render");
+  PvoxView view = bulk_view(map);
+  view.max_pixels = o.max_pixels;
+  const RgbImage img = o.view == "oblique" ? render_pvox_iso(map, view) : render_pvox_top(map, view);
+  write_png(o.out, img);
+  std::printf("wrote %s: %dx%d pixels, %s view of the PVOX map (%zu occupied voxels of %.1f mm)\n", o.out.c_str(),
+              img.width, img.height, o.view == "oblique" ? "isometric" : "top", map.occupied().size(), map.edge() * 1000.0);
+}
+#endif
+
 void run_render(const RenderOptions& o) {
   for (const double z : {o.range.z_low, o.range.z_high}) {
     // NaN: not given. Beyond ±100 km no map has heights, and adding a step to 1e17 changes nothing.
@@ -34,7 +56,11 @@ void run_render(const RenderOptions& o) {
       throw Error(format("--z-low / --z-high = %g m is out of its range [-100000, 100000] m", z));
     }
   }
+  check_output_extension(o.out, {".png"}, "hmap render writes a PNG picture");
   check_output_file(o.out);
+#ifdef HMAP_HAVE_PVOX
+  if (is_pvox_file(o.map)) return render_pvox(o);
+#endif
   const MapFile file = load_map_file(o.map);
   const HMap& map = file.map;
   if (map.stats().hvoxels == 0) throw Error(o.map + ": the map is empty, nothing to render");
@@ -70,22 +96,20 @@ void run_render(const RenderOptions& o) {
   const std::uint8_t colours[4][3] = {{255, 255, 255}, {255, 40, 40}, {255, 0, 255}, {255, 160, 0}};
   std::vector<LegendEntry> legend;
   if (on_grid) {
-    legend = {{255, 255, 255, "FREE"}, {0, 0, 0, "OCCUPIED"}, {205, 205, 205, "UNKNOWN"}};
+    legend = {{255, 255, 255, "free"}, {0, 0, 0, "occupied"}, {205, 205, 205, "unknown"}};
   } else {
     std::uint8_t r = 0, g = 0, b = 0;
     height_colour(0.0, r, g, b);
-    legend.push_back({r, g, b, format("%.2f M", range.z_low)});
+    legend.push_back({r, g, b, format("%.2f m", range.z_low)});
     height_colour(1.0, r, g, b);
-    legend.push_back({r, g, b, format("%.2f M", range.z_high)});
+    legend.push_back({r, g, b, format("%.2f m", range.z_high)});
   }
   for (std::size_t k = 0; k < paths.size(); ++k) {
     std::uint8_t c[3] = {colours[std::min<std::size_t>(k, 3)][0], colours[std::min<std::size_t>(k, 3)][1],
                          colours[std::min<std::size_t>(k, 3)][2]};
     if (on_grid && k == 0) c[0] = 0, c[1] = 90, c[2] = 255;
     draw_path(img, vp, paths[k], c[0], c[1], c[2]);
-    std::string name = std::filesystem::path(o.trajectories[k]).stem().string();
-    for (char& ch : name) ch = static_cast<char>(std::toupper(static_cast<unsigned char>(ch)));
-    legend.push_back({c[0], c[1], c[2], "PATH " + name.substr(0, 20)});
+    legend.push_back({c[0], c[1], c[2], "path " + std::filesystem::path(o.trajectories[k]).filename().string()});
   }
   draw_legend_and_scale(img, vp, legend);
   write_png(o.out, img);
@@ -108,7 +132,7 @@ void run_render(const RenderOptions& o) {
 void add_render_command(CLI::App& app) {
   auto opts = std::make_shared<RenderOptions>();
   auto* cmd = app.add_subcommand("render", "Draw a PNG of a map: top-down (with trajectories) or oblique");
-  cmd->add_option("map", opts->map, "Map file (.hmap)")->required();
+  cmd->add_option("map", opts->map, "Map file (.hmap, or the .pvox of hmap pvox)")->required();
   cmd->add_option("--out,-o", opts->out, "Output PNG file")->required();
   cmd->add_option("--view", opts->view, "top or oblique")->check(CLI::IsMember({"top", "oblique"}))->capture_default_str();
   cmd->add_option("--layer", opts->layer,

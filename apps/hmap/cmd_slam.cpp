@@ -25,18 +25,14 @@ namespace hmap::cli {
 
 namespace {
 
-struct SlamOptions {
+struct SlamOptions : InputOptions {
   ParamOptions params;
-  ScanSourceOptions sensors;
-  std::string kitti;
-  std::vector<std::string> files;
   std::string attitude_from;
   std::string odometry;
   std::string gt;
   std::string imu;
   std::string imu_topic;
   std::vector<double> imu_rpy;
-  std::size_t scans = 0;
   std::string out;
 };
 
@@ -273,8 +269,7 @@ void run_slam(const SlamOptions& o) {
 void add_slam_command(CLI::App& app) {
   auto opts = std::make_shared<SlamOptions>();
   auto* cmd = app.add_subcommand("slam", "Estimate planar poses by matching scans on the HMAP, and build the map");
-  cmd->add_option("--kitti", opts->kitti, "KITTI sequence folder (velodyne/*.bin, times.txt, calib.txt)");
-  cmd->add_option("scans", opts->files, "Scan files (.pcd .ply .bin .xyz .csv .txt), in order");
+  opts->add_input_options(*cmd, /*poses_help=*/"");
   cmd->add_option("--attitude-from", opts->attitude_from,
                   "Poses (KITTI or TUM) whose z, roll and pitch are used, like an IMU's");
   cmd->add_option("--odometry", opts->odometry,
@@ -290,10 +285,8 @@ void add_slam_command(CLI::App& app) {
                   "IMU mounting R_sensor_imu = Rz(yaw)Ry(pitch)Rx(roll) as ROLL PITCH YAW [rad] (slam.imu_roll, "
                   "imu_pitch, imu_yaw; default identity)")
       ->expected(3);
-  cmd->add_option("--scans", opts->scans, "Use only the first N scans")->check(kCount);
   cmd->add_option("--out,-o", opts->out, "Output folder")->required();
   opts->params.add_to(*cmd);
-  opts->sensors.add_to(*cmd);
   cmd->callback([opts] { run_slam(*opts); });
 }
 

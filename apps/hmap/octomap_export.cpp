@@ -5,7 +5,9 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <cstdio>
 #include <iostream>
 #include <sstream>
@@ -47,7 +49,8 @@ class QuietStderr {
 
 }  // namespace
 
-std::size_t write_octomap_bt(const std::filesystem::path& path, const HMap& map, const MemoryBudget& budget) {
+OctomapExportStats write_octomap_bt(const std::filesystem::path& path, const HMap& map, std::span<const FreeBand> free,
+                                    const MemoryBudget& budget) {
   const double res = map.cell_size();
   octomap::OcTree tree(res);
   // Leaves whose vertical extent meets [z_min, z_max]: keys floor(z_min / res) .. floor(z_max / res).
@@ -67,6 +70,15 @@ std::size_t write_octomap_bt(const std::filesystem::path& path, const HMap& map,
       leaves_needed += std::floor(v.z_max / res) - std::floor(v.z_min / res) + 1.0;
     }
   });
+  for (const FreeBand& band : free) {
+    const Eigen::Vector2d xy = map.cell_center(band.key);
+    octomap::OcTreeKey k;
+    if (!(band.z_high > band.z_low) || !tree.coordToKeyChecked(xy.x(), xy.y(), band.z_low, k) ||
+        !tree.coordToKeyChecked(xy.x(), xy.y(), band.z_high, k)) {
+      continue;  // free space beyond the key range is left unknown, not refused: it is not the map
+    }
+    leaves_needed += std::floor(band.z_high / res) - std::floor(band.z_low / res);
+  }
   if (beyond > 0) {
     throw Error(path.string() + ": " + std::to_string(beyond) + " HVoxels lie beyond OctoMap's key range (+-" +
                 format("%g", 32768.0 * res) + " m at " + format("%g", res) +
@@ -74,22 +86,50 @@ std::size_t write_octomap_bt(const std::filesystem::path& path, const HMap& map,
   }
   // About 100 bytes per leaf before pruning: the node, and its share of the inner nodes' child arrays.
   budget.require(leaves_needed * 100.0, path.string() + ": " + format("%.0f", leaves_needed) + " OctoMap leaves");
-  std::size_t leaves = 0;
+  OctomapExportStats stats;
+  // Free first, occupied after: a leaf of both is occupied. Values are set, not added, so equal
+  // siblings prune.
+  const float free_value = tree.getClampingThresMinLog();
+  for (const FreeBand& band : free) {
+    const Eigen::Vector2d xy = map.cell_center(band.key);
+    octomap::OcTreeKey k;
+    if (!(band.z_high > band.z_low) || !tree.coordToKeyChecked(xy.x(), xy.y(), band.z_low, k) ||
+        !tree.coordToKeyChecked(xy.x(), xy.y(), band.z_high, k)) {
+      continue;
+    }
+    const auto first = static_cast<long>(std::floor(band.z_low / res)) + 1;  // (z_low, z_high]
+    const auto last = static_cast<long>(std::floor(band.z_high / res));
+    for (long z = first; z <= last; ++z) {
+      const double zc = (static_cast<double>(z) + 0.5) * res;
+      tree.setNodeValue(octomap::point3d(static_cast<float>(xy.x()), static_cast<float>(xy.y()), static_cast<float>(zc)),
+                        free_value, /*lazy_eval=*/true);
+    }
+  }
   map.for_each_column([&](const CellKey& key, const ColumnView& column) {
     const Eigen::Vector2d xy = map.cell_center(key);
+    // Two HVoxels of a column may reach into the same leaf: counted once (they are sorted upwards).
+    long written_up_to = std::numeric_limits<long>::min();
     for (const HVoxel& v : column) {
       const auto first = static_cast<long>(std::floor(v.z_min / res));  // inside the key range: checked above
       const auto last = static_cast<long>(std::floor(v.z_max / res));
       for (long k = first; k <= last; ++k) {
         const double z = (static_cast<double>(k) + 0.5) * res;
-        tree.updateNode(octomap::point3d(static_cast<float>(xy.x()), static_cast<float>(xy.y()), static_cast<float>(z)),
-                        tree.getClampingThresMaxLog(), /*lazy_eval=*/true);
-        ++leaves;
+        tree.setNodeValue(octomap::point3d(static_cast<float>(xy.x()), static_cast<float>(xy.y()), static_cast<float>(z)),
+                          tree.getClampingThresMaxLog(), /*lazy_eval=*/true);
+        if (k > written_up_to) ++stats.occupied_voxels;
+        written_up_to = std::max(written_up_to, k);
       }
     }
   });
   tree.updateInnerOccupancy();
   tree.prune();
+  stats.leaves = tree.getNumLeafNodes();
+  // Free voxels as written: the free leaves' volume in voxels of the map's cell.
+  double free_volume = 0.0;
+  for (auto it = tree.begin_leafs(); it != tree.end_leafs(); ++it) {
+    if (!tree.isNodeOccupied(*it)) free_volume += std::pow(it.getSize() / res, 3.0);
+  }
+  stats.free_voxels = static_cast<std::size_t>(std::llround(free_volume));
   write_file_atomic(path, [&](std::ostream& out) {
     // liboctomap reports progress on stderr; keep the terminal to our own one-line messages.
     bool ok = false;
@@ -99,7 +139,7 @@ std::size_t write_octomap_bt(const std::filesystem::path& path, const HMap& map,
     }
     if (!ok) throw Error("OctoMap could not serialise the tree");
   });
-  return leaves;
+  return stats;
 }
 
 }  // namespace hmap::cli

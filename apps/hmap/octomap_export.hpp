@@ -2,16 +2,34 @@
 // The HMAP as an OctoMap binary tree (.bt) for octovis and the octomap tools.
 
 #include <filesystem>
+#include <span>
 
 #include "hmap/maps/hmap.hpp"
 
 namespace hmap::cli {
 
+/// What an OctoMap export wrote, counted as liboctomap counts the file it reads back.
+struct OctomapExportStats {
+  std::size_t occupied_voxels = 0;  ///< distinct occupied voxels of the map's cell size
+  std::size_t free_voxels = 0;      ///< distinct free voxels (not occupied) of the map's cell size
+  std::size_t leaves = 0;           ///< leaf nodes of the pruned tree (OcTree::getNumLeafNodes)
+};
+
+/// Known free space of one grid cell: the vertical band (z_low, z_high] [m], e.g. from the ground
+/// up to the robot's height where the 2D grid says free.
+struct FreeBand {
+  CellKey key;
+  double z_low = 0.0;
+  double z_high = 0.0;
+};
+
 /// Writes every HVoxel as occupied OctoMap leaves at the map's cell size (each cell's column
 /// from z_min to z_max, one leaf per cell-size step), pruned, as a binary tree (.bt), atomically.
-/// Returns the number of leaves set. Throws hmap::Error, before anything is written, when an
+/// The `free` bands become free leaves (clamped free), except where an HVoxel is. Eight equal
+/// siblings are pruned into their parent, so `leaves` is at most the voxels written. Throws hmap::Error, before anything is written, when an
 /// HVoxel lies beyond OctoMap's key range (±32768 leaves from the origin on each axis: OctoMap
 /// would drop it silently) or when the leaves would need more than `budget`.
-std::size_t write_octomap_bt(const std::filesystem::path& path, const HMap& map, const MemoryBudget& budget);
+OctomapExportStats write_octomap_bt(const std::filesystem::path& path, const HMap& map, std::span<const FreeBand> free,
+                                    const MemoryBudget& budget);
 
 }  // namespace hmap::cli

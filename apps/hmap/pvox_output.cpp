@@ -1,9 +1,14 @@
 #include "pvox_output.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <string_view>
 
+#include <fstream>
+
+#include "cli_common.hpp"
 #include "hmap/io/atomic_file.hpp"
+#include "hmap/io/read_support.hpp"
 #include "hmap/pvox/serialize.hpp"
 
 namespace hmap::cli {
@@ -24,6 +29,40 @@ PvoxFileSizes write_pvox_files(const std::filesystem::path& dir, const std::stri
     sizes.raw_csv = raw.size();
   }
   return sizes;
+}
+
+bool is_pvox_file(const std::filesystem::path& path) {
+  static constexpr char kMagic[8] = {'\x89', 'P', 'V', 'O', 'X', '\r', '\n', '\x1a'};
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) return false;
+  std::ifstream in(path, std::ios::binary);
+  char head[8] = {};
+  return in.read(head, 8) && std::equal(head, head + 8, kMagic);
+}
+
+pvox::VoxelMap load_pvox_file(const std::filesystem::path& path) {
+  const std::string bytes = detail::read_file_bytes(path);
+  return pvox::decode_binary(std::span(reinterpret_cast<const std::uint8_t*>(bytes.data()), bytes.size()), path.string(),
+                             memory_budget());
+}
+
+PvoxView bulk_view(const pvox::VoxelMap& map) {
+  PvoxView view;
+  const auto occupied = map.occupied();
+  if (occupied.size() > 100) {
+    Eigen::Vector3d lo;
+    Eigen::Vector3d hi;
+    for (int a = 0; a < 3; ++a) {
+      std::vector<double> c;
+      c.reserve(occupied.size());
+      for (const auto& v : occupied) c.push_back(v.centre[a]);
+      std::sort(c.begin(), c.end());
+      lo[a] = c[c.size() / 50] - map.edge();
+      hi[a] = c[c.size() - 1 - c.size() / 50] + map.edge();
+    }
+    view.clip = Eigen::AlignedBox3d(lo, hi);
+  }
+  return view;
 }
 
 void write_pvox_pictures(const std::filesystem::path& dir, const std::string& prefix, const pvox::VoxelMap& map,

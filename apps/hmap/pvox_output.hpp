@@ -22,6 +22,17 @@ struct PvoxFileSizes {
 PvoxFileSizes write_pvox_files(const std::filesystem::path& dir, const std::string& prefix, const pvox::VoxelMap& map,
                                const PointCloud* raw_points);
 
+/// True when `path` begins with the PVOX magic (the file `hmap pvox` writes as map.pvox); false for
+/// any other file, including one that cannot be read (its loader then says why).
+[[nodiscard]] bool is_pvox_file(const std::filesystem::path& path);
+/// Reads a `.pvox` file written by write_pvox_files, checked as pvox::decode_binary checks it, within
+/// the run's memory budget; hmap::InputError naming the file otherwise.
+[[nodiscard]] pvox::VoxelMap load_pvox_file(const std::filesystem::path& path);
+
+/// The view of the map's bulk: clipped to the 2nd–98th percentile box of the occupied voxels when
+/// there are more than 100 (a few far returns would otherwise shrink everything to dots).
+[[nodiscard]] PvoxView bulk_view(const pvox::VoxelMap& map);
+
 /// Writes DIR/PREFIXtop.png, DIR/PREFIXiso.png and, when `gradient_z` is finite, DIR/PREFIXgradient.png.
 void write_pvox_pictures(const std::filesystem::path& dir, const std::string& prefix, const pvox::VoxelMap& map,
                          const PvoxView& view, double gradient_z);

@@ -11,6 +11,7 @@
 #include "hmap/core/error.hpp"
 #include "hmap/ground/ground_patches.hpp"
 #include "hmap/occupancy/occupancy_grid.hpp"
+#include "text.hpp"
 
 namespace hmap::cli {
 
@@ -150,69 +151,6 @@ void draw_path(RgbImage& image, const TopViewport& vp, const PoseList& poses, st
 
 namespace {
 
-/// 5x7 glyphs, one byte per row, bit 4 = leftmost pixel.
-struct Glyph {
-  char c;
-  std::array<std::uint8_t, 7> rows;
-};
-constexpr Glyph kFont[] = {
-    {'%', {0x18, 0x19, 0x02, 0x04, 0x08, 0x13, 0x03}},
-    {'(', {0x02, 0x04, 0x08, 0x08, 0x08, 0x04, 0x02}},
-    {')', {0x08, 0x04, 0x02, 0x02, 0x02, 0x04, 0x08}},
-    {'+', {0x00, 0x04, 0x04, 0x1F, 0x04, 0x04, 0x00}},
-    {',', {0x00, 0x00, 0x00, 0x00, 0x0C, 0x04, 0x08}},
-    {'-', {0x00, 0x00, 0x00, 0x1F, 0x00, 0x00, 0x00}},
-    {'.', {0x00, 0x00, 0x00, 0x00, 0x00, 0x0C, 0x0C}},
-    {'/', {0x00, 0x01, 0x02, 0x04, 0x08, 0x10, 0x00}},
-    {'0', {0x0E, 0x11, 0x13, 0x15, 0x19, 0x11, 0x0E}},
-    {'1', {0x04, 0x0C, 0x04, 0x04, 0x04, 0x04, 0x0E}},
-    {'2', {0x0E, 0x11, 0x01, 0x02, 0x04, 0x08, 0x1F}},
-    {'3', {0x1F, 0x02, 0x04, 0x02, 0x01, 0x11, 0x0E}},
-    {'4', {0x02, 0x06, 0x0A, 0x12, 0x1F, 0x02, 0x02}},
-    {'5', {0x1F, 0x10, 0x1E, 0x01, 0x01, 0x11, 0x0E}},
-    {'6', {0x06, 0x08, 0x10, 0x1E, 0x11, 0x11, 0x0E}},
-    {'7', {0x1F, 0x01, 0x02, 0x04, 0x08, 0x08, 0x08}},
-    {'8', {0x0E, 0x11, 0x11, 0x0E, 0x11, 0x11, 0x0E}},
-    {'9', {0x0E, 0x11, 0x11, 0x0F, 0x01, 0x02, 0x0C}},
-    {':', {0x00, 0x0C, 0x0C, 0x00, 0x0C, 0x0C, 0x00}},
-    {'=', {0x00, 0x00, 0x1F, 0x00, 0x1F, 0x00, 0x00}},
-    {'A', {0x0E, 0x11, 0x11, 0x1F, 0x11, 0x11, 0x11}},
-    {'B', {0x1E, 0x11, 0x11, 0x1E, 0x11, 0x11, 0x1E}},
-    {'C', {0x0E, 0x11, 0x10, 0x10, 0x10, 0x11, 0x0E}},
-    {'D', {0x1E, 0x11, 0x11, 0x11, 0x11, 0x11, 0x1E}},
-    {'E', {0x1F, 0x10, 0x10, 0x1E, 0x10, 0x10, 0x1F}},
-    {'F', {0x1F, 0x10, 0x10, 0x1E, 0x10, 0x10, 0x10}},
-    {'G', {0x0E, 0x11, 0x10, 0x17, 0x11, 0x11, 0x0F}},
-    {'H', {0x11, 0x11, 0x11, 0x1F, 0x11, 0x11, 0x11}},
-    {'I', {0x0E, 0x04, 0x04, 0x04, 0x04, 0x04, 0x0E}},
-    {'J', {0x07, 0x02, 0x02, 0x02, 0x02, 0x12, 0x0C}},
-    {'K', {0x11, 0x12, 0x14, 0x18, 0x14, 0x12, 0x11}},
-    {'L', {0x10, 0x10, 0x10, 0x10, 0x10, 0x10, 0x1F}},
-    {'M', {0x11, 0x1B, 0x15, 0x15, 0x11, 0x11, 0x11}},
-    {'N', {0x11, 0x11, 0x19, 0x15, 0x13, 0x11, 0x11}},
-    {'O', {0x0E, 0x11, 0x11, 0x11, 0x11, 0x11, 0x0E}},
-    {'P', {0x1E, 0x11, 0x11, 0x1E, 0x10, 0x10, 0x10}},
-    {'Q', {0x0E, 0x11, 0x11, 0x11, 0x15, 0x12, 0x0D}},
-    {'R', {0x1E, 0x11, 0x11, 0x1E, 0x14, 0x12, 0x11}},
-    {'S', {0x0F, 0x10, 0x10, 0x0E, 0x01, 0x01, 0x1E}},
-    {'T', {0x1F, 0x04, 0x04, 0x04, 0x04, 0x04, 0x04}},
-    {'U', {0x11, 0x11, 0x11, 0x11, 0x11, 0x11, 0x0E}},
-    {'V', {0x11, 0x11, 0x11, 0x11, 0x11, 0x0A, 0x04}},
-    {'W', {0x11, 0x11, 0x11, 0x15, 0x15, 0x15, 0x0A}},
-    {'X', {0x11, 0x11, 0x0A, 0x04, 0x0A, 0x11, 0x11}},
-    {'Y', {0x11, 0x11, 0x0A, 0x04, 0x04, 0x04, 0x04}},
-    {'Z', {0x1F, 0x01, 0x02, 0x04, 0x08, 0x10, 0x1F}},
-    {'_', {0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x1F}},
-};
-
-const Glyph* glyph(char c) {
-  if (c >= 'a' && c <= 'z') c = static_cast<char>(c - 'a' + 'A');
-  for (const Glyph& g : kFont) {
-    if (g.c == c) return &g;
-  }
-  return nullptr;
-}
-
 void plot_clipped(RgbImage& image, int x, int y, std::uint8_t r, std::uint8_t g, std::uint8_t b) {
   if (x >= 0 && y >= 0 && x < image.width && y < image.height) image.set(x, y, r, g, b);
 }
@@ -228,39 +166,34 @@ void draw_line(RgbImage& image, double xa, double ya, double xb, double yb, std:
 
 }  // namespace
 
-void draw_text(RgbImage& image, int x, int y, std::string_view text, int scale, std::uint8_t r, std::uint8_t g,
-               std::uint8_t b) {
-  for (const char c : text) {
-    if (const Glyph* gl = glyph(c)) {
-      for (int row = 0; row < 7; ++row) {
-        for (int col = 0; col < 5; ++col) {
-          if (((gl->rows[static_cast<std::size_t>(row)] >> (4 - col)) & 1U) == 0) continue;
-          for (int dy = 0; dy < scale; ++dy)
-            for (int dx = 0; dx < scale; ++dx) plot_clipped(image, x + col * scale + dx, y + row * scale + dy, r, g, b);
-        }
-      }
-    }
-    x += 6 * scale;
-  }
-}
-
 RgbImage side_by_side(const std::vector<std::pair<std::string, RgbImage>>& panels) {
   constexpr int kGap = 12;
-  constexpr int kTitle = 30;
+  // Titles fitted to their panels' widths at one common size: the largest in [11, 20] px at which
+  // every title fits on one line, else 11 px with the long ones wrapped.
+  int size = 20;
   int width = kGap;
   int height = 0;
   for (const auto& [title, img] : panels) {
+    size = std::min(size, fit_text(title, img.width, 20, 11).pixel_height);
     width += img.width + kGap;
     height = std::max(height, img.height);
   }
-  RgbImage out(width, height + kTitle + kGap, 255);
-  int x = kGap;
+  std::vector<FittedText> titles;
+  int title_h = 0;
   for (const auto& [title, img] : panels) {
-    draw_text(out, x, 8, title, 2, 0, 0, 0);
+    titles.push_back(fit_text(title, img.width, size, size));
+    title_h = std::max(title_h, titles.back().height());
+  }
+  const int top = 8 + title_h + 6;
+  RgbImage out(width, height + top + kGap, 255);
+  int x = kGap;
+  for (std::size_t p = 0; p < panels.size(); ++p) {
+    const RgbImage& img = panels[p].second;
+    draw_fitted(out, x, 8, titles[p], 0, 0, 0);
     for (int y = 0; y < img.height; ++y) {
       for (int xx = 0; xx < img.width; ++xx) {
         const std::size_t k = 3 * (static_cast<std::size_t>(y) * static_cast<std::size_t>(img.width) + static_cast<std::size_t>(xx));
-        out.set(x + xx, kTitle + y, img.rgb[k], img.rgb[k + 1], img.rgb[k + 2]);
+        out.set(x + xx, top + y, img.rgb[k], img.rgb[k + 1], img.rgb[k + 2]);
       }
     }
     x += img.width + kGap;
@@ -403,35 +336,38 @@ void framed_box(RgbImage& img, int x0, int y0, int x1, int y1) {
 }  // namespace
 
 void draw_legend_and_scale(RgbImage& image, const TopViewport& viewport, const std::vector<LegendEntry>& legend) {
-  constexpr int kScale = 1;       // font pixels per pixel
-  constexpr int kLine = 10;       // [px] per legend line (7 px glyphs)
-  constexpr int kSwatch = 8;
-  constexpr int kMargin = 4;
-  std::size_t longest = 0;
-  for (const LegendEntry& e : legend) longest = std::max(longest, e.label.size());
-  const int legend_w = kMargin * 3 + kSwatch + static_cast<int>(longest) * 6 * kScale;
-  const int legend_h = kMargin * 2 + static_cast<int>(legend.size()) * kLine;
+  constexpr int kText = 13;  // [px] font height
+  constexpr int kSwatch = 10;
+  constexpr int kMargin = 5;
+  const int line = std::max(kSwatch, measure_text("", kText).height) + 3;  // [px] per legend line
+  int longest = 0;
+  for (const LegendEntry& e : legend) longest = std::max(longest, measure_text(e.label, kText).width);
+  const int legend_w = kMargin * 3 + kSwatch + longest;
+  const int legend_h = kMargin * 2 + static_cast<int>(legend.size()) * line;
   if (!legend.empty() && image.width >= legend_w + 8 && image.height >= legend_h + 40) {
     framed_box(image, 4, 4, 4 + legend_w, 4 + legend_h);
     for (std::size_t k = 0; k < legend.size(); ++k) {
-      const int y = 4 + kMargin + static_cast<int>(k) * kLine;
+      const int y = 4 + kMargin + static_cast<int>(k) * line;
       const LegendEntry& e = legend[k];
-      fill_box(image, 4 + kMargin - 1, y - 1, 4 + kMargin + kSwatch + 1, y + kSwatch + 1, 0, 0, 0);
-      fill_box(image, 4 + kMargin, y, 4 + kMargin + kSwatch, y + kSwatch, e.r, e.g, e.b);
-      draw_text(image, 4 + 2 * kMargin + kSwatch, y, e.label, kScale, 0, 0, 0);
+      const int sy = y + (line - 3 - kSwatch) / 2;
+      fill_box(image, 4 + kMargin - 1, sy - 1, 4 + kMargin + kSwatch + 1, sy + kSwatch + 1, 0, 0, 0);
+      fill_box(image, 4 + kMargin, sy, 4 + kMargin + kSwatch, sy + kSwatch, e.r, e.g, e.b);
+      draw_text(image, 4 + 2 * kMargin + kSwatch, y, e.label, kText, 0, 0, 0);
     }
   }
   const double length_m = scale_bar_length(image.width * viewport.m_per_px);
   const int bar_px = static_cast<int>(std::lround(length_m / viewport.m_per_px));
-  const std::string label = format("%g M", length_m);
-  const int box_w = std::max(bar_px, static_cast<int>(label.size()) * 6) + 2 * kMargin;
-  if (bar_px < 10 || image.width < box_w + 8 || image.height < 40) return;
+  const std::string label = format("%g m", length_m);
+  const TextSize label_size = measure_text(label, kText);
+  const int box_w = std::max(bar_px, label_size.width) + 2 * kMargin;
+  const int box_h = label_size.height + 14;
+  if (bar_px < 10 || image.width < box_w + 8 || image.height < box_h + 16) return;
   const int y1 = image.height - 4;
-  framed_box(image, 4, y1 - 24, 4 + box_w, y1);
+  framed_box(image, 4, y1 - box_h, 4 + box_w, y1);
   fill_box(image, 4 + kMargin, y1 - 8, 4 + kMargin + bar_px, y1 - 5, 0, 0, 0);  // the bar
   fill_box(image, 4 + kMargin, y1 - 11, 4 + kMargin + 1, y1 - 5, 0, 0, 0);      // its ends
   fill_box(image, 4 + kMargin + bar_px - 1, y1 - 11, 4 + kMargin + bar_px, y1 - 5, 0, 0, 0);
-  draw_text(image, 4 + kMargin, y1 - 21, label, kScale, 0, 0, 0);
+  draw_text(image, 4 + kMargin, y1 - box_h + 2, label, kText, 0, 0, 0);
 }
 
 }  // namespace hmap::cli

@@ -77,9 +77,6 @@ namespace hmap::cli {
 void draw_ground_patches(RgbImage& image, const TopViewport& viewport, const std::vector<GroundPatch>& patches,
                          std::uint8_t r, std::uint8_t g, std::uint8_t b);
 
-/// Text in a 5x7 pixel font (upper case, digits, . , : - + / ( ) % = _), `scale` pixels per font pixel.
-void draw_text(RgbImage& image, int x, int y, std::string_view text, int scale, std::uint8_t r, std::uint8_t g,
-               std::uint8_t b);
 
 /// One entry of a legend: a colour swatch and its label.
 struct LegendEntry {
@@ -96,7 +93,8 @@ void draw_legend_and_scale(RgbImage& image, const TopViewport& viewport, const s
 /// The scale bar's length [m] for a picture `width_m` wide: the largest 1, 2 or 5 × 10^k at most a fifth of it.
 [[nodiscard]] double scale_bar_length(double width_m);
 
-/// Panels side by side on white, each with its title above it.
+/// Panels side by side on white, each with its title above it, fitted to the panel's width at one
+/// size for all (text.hpp: smaller, then wrapped).
 [[nodiscard]] RgbImage side_by_side(const std::vector<std::pair<std::string, RgbImage>>& panels);
 
 }  // namespace hmap::cli

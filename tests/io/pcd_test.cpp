@@ -280,6 +280,27 @@ TEST_F(PcdTest, RejectsCorruptCompressedData) {
   EXPECT_TRUE(contains(input_error_of([&] { (void)read_pcd(write("c6.pcd", cut)); }), "8-byte size header"));
 }
 
+// VIEWPOINT is the sensor's pose in the cloud's frame (tx ty tz qw qx qy qz): the points come out
+// in that frame. Here 90° about z and a shift: sensor (1, 0, 0) -> (10, 21, 30).
+TEST_F(PcdTest, AppliesTheViewpoint) {
+  std::string text = header("x y z", "4 4 4", "F F F", "1 1 1", 2, 1, "ascii") + "1 0 0\n0 0 2\n";
+  const auto at = text.find("VIEWPOINT 0 0 0 1 0 0 0");
+  text.replace(at, 23, "VIEWPOINT 10 20 30 0.70710678 0 0 0.70710678");
+  const PointCloud cloud = read_pcd(write("v.pcd", text));
+  ASSERT_EQ(cloud.size(), 2U);
+  EXPECT_NEAR((cloud[0] - Point3f(10, 21, 30)).norm(), 0.0F, 1e-5F);
+  EXPECT_NEAR((cloud[1] - Point3f(10, 20, 32)).norm(), 0.0F, 1e-5F);
+  // The Kinect files' 180° about x (qx = 1): y and z change sign.
+  text = header("x y z", "4 4 4", "F F F", "1 1 1", 1, 1, "ascii") + "1 2 3\n";
+  text.replace(text.find("VIEWPOINT 0 0 0 1 0 0 0"), 23, "VIEWPOINT 0 0 0 0 1 0 0");
+  EXPECT_EQ(read_pcd(write("k.pcd", text)).at(0), Point3f(1, -2, -3));
+  // Not a rotation, or not seven numbers: refused with the line.
+  text.replace(text.find("VIEWPOINT 0 0 0 0 1 0 0"), 23, "VIEWPOINT 0 0 0 0 2 0 0");
+  EXPECT_TRUE(contains(input_error_of([&] { (void)read_pcd(write("n.pcd", text)); }), "n.pcd: line 9: VIEWPOINT quaternion"));
+  text.replace(text.find("VIEWPOINT 0 0 0 0 2 0 0"), 23, "VIEWPOINT 0 0 0 1 0 0");
+  EXPECT_TRUE(contains(input_error_of([&] { (void)read_pcd(write("s.pcd", text)); }), "VIEWPOINT expects 7 numbers"));
+}
+
 // ---- real data ----
 
 TEST(PcdRealData, ReadsKinectOrganizedCompressedClouds) {

@@ -53,6 +53,34 @@ TEST(PgmExportTest, WritesWhatMapServerReads) {
   std::filesystem::remove_all(dir);
 }
 
+// Origins are index · cell in exact decimal: the double product -219 · 0.1 prints as
+// -21.900000000000002, which no person writes and which reads back as a different number.
+TEST(PgmExportTest, OriginsAreTheShortestExactDecimal) {
+  EXPECT_EQ(decimal_multiple(-219, 0.1), "-21.9");
+  EXPECT_EQ(decimal_multiple(3, 0.1), "0.3");
+  EXPECT_EQ(decimal_multiple(0, 0.1), "0");
+  EXPECT_EQ(decimal_multiple(-4, 0.25), "-1");
+  EXPECT_EQ(decimal_multiple(7, 1e-5), "0.00007");
+  EXPECT_EQ(decimal_multiple(-12, 0.05), "-0.6");
+  EXPECT_EQ(decimal_multiple(5, 2.0), "10");
+  EXPECT_EQ(decimal_multiple(100000, 0.3), "30000");
+  EXPECT_EQ(decimal_multiple(-2147483647, 0.123456789), "-265121435.488629483");
+  // Brute-force twin: for every index the decimal reads back to the nearest double of the exact product.
+  for (int i = -3000; i <= 3000; i += 7) {
+    const std::string d = decimal_multiple(i, 0.1);
+    EXPECT_NEAR(std::stod(d), i * 0.1, 1e-9) << i;
+    EXPECT_LE(d.size(), std::to_string(i).size() + 2) << d;
+  }
+  const auto dir = test::temp_dir("pgm_origin");
+  OccupancyGrid g(0.1, 0.12, 0.97);
+  g.update({-219, -3}, log_odds(0.9));
+  g.update({-200, 4}, log_odds(0.1));
+  write_pgm_map(dir / "o", g);
+  const std::string yaml = slurp(dir / "o.yaml");
+  EXPECT_NE(yaml.find("origin: [-21.9, -0.3, 0.0]"), std::string::npos) << yaml;
+  std::filesystem::remove_all(dir);
+}
+
 TEST(PgmExportTest, EmptyGridIsAnError) {
   const auto dir = test::temp_dir("pgm_empty");
   OccupancyGrid g(0.05, 0.12, 0.97);

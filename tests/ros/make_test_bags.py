@@ -21,6 +21,7 @@ Bags written to OUT_DIR (stamps = balm_os0/times.txt; poses = balm_os0/poses.txt
                   -0.02, 0.3), accel (0, 0, 9.81), orientation covariance[0] = -1 (none)
   imu_two.bag     /imu and /imu_b (two Imu topics), one message each
 """
+import os
 import sys
 
 import math
@@ -113,7 +114,11 @@ def full_bag(data_dir, out):
                 poses.append(([v[0:3], v[4:7], v[8:11]], [v[3], v[7], v[11]]))
     with open(f'{data_dir}/balm_os0/times.txt') as f:
         times = [float(line) for line in f if line.strip()]
-    with rosbag.Bag(out, 'w', compression='lz4') as bag:
+    # The folder is made (a fresh clone has no out/bag), and the bag written under a temporary
+    # name and renamed: an interrupted run leaves no torn bag under the name.
+    os.makedirs(os.path.dirname(out) or '.', exist_ok=True)
+    partial = out + '.partial'
+    with rosbag.Bag(partial, 'w', compression='lz4') as bag:
         for k, (rot, trans) in enumerate(poses):
             stamp = rospy.Time.from_sec(times[k])
             bag.write('/odom', odometry(stamp, rot, trans), stamp)
@@ -127,6 +132,7 @@ def full_bag(data_dir, out):
             msg.fields = [PointField(name, 4 * i, PointField.FLOAT32, 1) for i, name in enumerate(['x', 'y', 'z', 'intensity'])]
             msg.is_bigendian, msg.point_step, msg.row_step, msg.data, msg.is_dense = False, 16, len(raw), raw, True
             bag.write('/os_cloud', msg, stamp)
+    os.replace(partial, out)
 
 
 def main():
@@ -134,6 +140,7 @@ def main():
         full_bag(sys.argv[1], sys.argv[3])
         return
     data_dir, out_dir = sys.argv[1], sys.argv[2]
+    os.makedirs(out_dir, exist_ok=True)
     scans = int(sys.argv[3]) if len(sys.argv) > 3 else 3
     step = int(sys.argv[4]) if len(sys.argv) > 4 else 10
     poses = []  # (rotation rows, translation)

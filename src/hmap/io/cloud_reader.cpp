@@ -8,6 +8,7 @@
 #include "hmap/io/kitti.hpp"
 #include "hmap/io/pcd.hpp"
 #include "hmap/io/ply.hpp"
+#include "hmap/io/vtk.hpp"
 #include "hmap/io/xyz.hpp"
 
 namespace hmap {
@@ -20,13 +21,14 @@ PointCloud read_cloud(const std::filesystem::path& path, CloudReadStats* stats, 
   if (extension == ".pcd") return read_pcd(path, stats, times_s);
   if (extension == ".ply") return read_ply(path, stats);
   if (extension == ".bin") return read_kitti_bin(path, stats);
+  if (extension == ".vtk") return read_vtk(path, stats);
   if (extension == ".xyz" || extension == ".txt" || extension == ".csv" || extension == ".pts") {
     return read_xyz(path, stats);
   }
   throw InputError(path.string(), "",
                    "unknown point cloud extension " +
                        (extension.empty() ? std::string("(none)") : "'" + extension + "'") +
-                       "; expected .pcd, .ply, .bin, .xyz, .txt, .csv or .pts");
+                       "; expected .pcd, .ply, .bin, .xyz, .txt, .csv, .pts or .vtk");
 }
 
 }  // namespace hmap

@@ -10,7 +10,7 @@
 namespace hmap {
 
 /// Reads a point cloud by its extension, in any letter case: .pcd (read_pcd), .ply (read_ply),
-/// .bin (read_kitti_bin), .xyz .txt .csv .pts (read_xyz). Throws InputError for another extension.
+/// .bin (read_kitti_bin), .xyz .txt .csv .pts (read_xyz), .vtk (read_vtk). Throws InputError for another extension.
 /// `times_s` given: each point's time [s] for a PCD with a t / time / timestamp field (read_pcd),
 /// empty for every other file.
 [[nodiscard]] PointCloud read_cloud(const std::filesystem::path& path, CloudReadStats* stats = nullptr,

@@ -12,6 +12,8 @@
 #include <string_view>
 #include <vector>
 
+#include <Eigen/Geometry>
+
 #include "hmap/core/error.hpp"
 #include "hmap/io/point_time.hpp"
 #include "hmap/io/read_support.hpp"
@@ -41,6 +43,8 @@ struct PcdHeader {
   PcdEncoding encoding = PcdEncoding::kAscii;
   std::size_t data_offset = 0;  ///< first byte after the DATA line
   std::size_t data_line = 0;    ///< 1-based number of the DATA line
+  /// VIEWPOINT tx ty tz qw qx qy qz: the sensor's pose in the cloud's frame; identity when absent.
+  Eigen::Isometry3d T_cloud_sensor = Eigen::Isometry3d::Identity();
 };
 
 /// Where one coordinate is found in a point record.
@@ -86,6 +90,9 @@ class PcdReader {
         break;
     }
     stats.points_read = header_.points;
+    if (header_.T_cloud_sensor.matrix() != Eigen::Matrix4d::Identity()) {
+      for (Point3f& p : cloud) p = (header_.T_cloud_sensor * p.cast<double>()).cast<float>();
+    }
     if (times != nullptr && time_) *times = point_times_to_seconds(raw_times_);
     return cloud;
   }
@@ -102,6 +109,26 @@ class PcdReader {
            std::string(key) + " value " + detail::quoted(token) + " is not a non-negative integer");
     }
     return value;
+  }
+
+  /// VIEWPOINT tx ty tz qw qx qy qz (PCL's sensor_origin_ and sensor_orientation_): applied to the
+  /// points, which then lie in the frame the sensor pose is given in.
+  void parse_viewpoint(const std::vector<std::string_view>& tokens, std::size_t line) {
+    if (tokens.size() != 8) fail(line_position(line), "VIEWPOINT expects 7 numbers (tx ty tz qw qx qy qz)");
+    double v[7];
+    for (std::size_t k = 0; k < 7; ++k) {
+      if (!detail::parse_double(tokens[k + 1], v[k]) || !std::isfinite(v[k])) {
+        fail(line_position(line), "VIEWPOINT value " + detail::quoted(tokens[k + 1]) + " is not a finite number");
+      }
+    }
+    Eigen::Quaterniond q(v[3], v[4], v[5], v[6]);
+    // PCL writes its quaternions in float: a norm within 1e-3 of 1 is a rotation, rounded.
+    if (std::abs(q.norm() - 1.0) > 1e-3) {
+      fail(line_position(line), "VIEWPOINT quaternion (qw qx qy qz) has norm " + std::to_string(q.norm()) + ", not 1");
+    }
+    header_.T_cloud_sensor = Eigen::Isometry3d::Identity();
+    header_.T_cloud_sensor.linear() = q.normalized().toRotationMatrix();
+    header_.T_cloud_sensor.translation() = Eigen::Vector3d(v[0], v[1], v[2]);
   }
 
   void parse_header() {
@@ -130,8 +157,10 @@ class PcdReader {
       const auto expect_one = [&] {
         if (tokens.size() != 2) fail(line_position(n), std::string(key) + " expects one value");
       };
-      if (key == "VERSION" || key == "VIEWPOINT") {
-        continue;  // the version changes nothing we read; the viewpoint is not applied by PCL either
+      if (key == "VERSION") {
+        continue;  // the version changes nothing we read
+      } else if (key == "VIEWPOINT") {
+        parse_viewpoint(tokens, n);
       } else if (key == "FIELDS" || key == "COLUMNS") {
         names.assign(tokens.begin() + 1, tokens.end());
       } else if (key == "SIZE") {

@@ -14,6 +14,9 @@ namespace hmap {
 /// or 8), I or U (SIZE 1, 2, 4 or 8). Points with a NaN or infinite coordinate (the invalid pixels
 /// of organized clouds) are dropped and counted in `stats`. Throws InputError naming the file and
 /// the line or byte for a header that contradicts itself or the file size, and for truncated data.
+/// VIEWPOINT tx ty tz qw qx qy qz, the sensor's pose in the cloud's frame, is applied to the points
+/// (PCL keeps it beside them as sensor_origin_ / sensor_orientation_); a quaternion whose norm is
+/// not 1 is refused.
 /// `times_s` given: filled with each kept point's time in seconds from the scan's reference when
 /// the file has a field t, time or timestamp (COUNT 1; units as point_times_to_seconds detects
 /// them), left empty when it has none. A time that is not finite is refused.

@@ -23,6 +23,52 @@ std::string shortest(double v) {
 
 }  // namespace
 
+std::string decimal_multiple(std::int64_t index, double cell) {
+  // The shortest round-trip digits of `cell` as mantissa · 10^exponent, multiplied exactly.
+  const std::string text = shortest(cell);
+  if (!std::isfinite(cell)) return shortest(static_cast<double>(index) * cell);
+  std::string digits;
+  int exponent = 0;
+  bool after_point = false;
+  for (std::size_t k = 0; k < text.size(); ++k) {
+    const char c = text[k];
+    if (c == '-') continue;
+    if (c == '.') {
+      after_point = true;
+    } else if (c == 'e' || c == 'E') {
+      exponent += std::stoi(text.substr(k + 1));
+      break;
+    } else {
+      digits += c;
+      if (after_point) --exponent;
+    }
+  }
+  // At most 17 significant digits times |index| <= 2^63 fits in 128 bits (a GCC/Clang extension).
+  __extension__ typedef unsigned __int128 Wide;
+  Wide product = 0;
+  for (const char c : digits) product = product * 10 + static_cast<Wide>(c - '0');
+  const bool negative = (index < 0) != (cell < 0.0) && index != 0 && product != 0;
+  const Wide magnitude = index < 0 ? Wide(0) - static_cast<Wide>(index) : static_cast<Wide>(index);
+  product *= magnitude;
+  std::string out;
+  do {
+    out.push_back(static_cast<char>('0' + static_cast<int>(product % 10)));
+    product /= 10;
+  } while (product > 0);
+  std::reverse(out.begin(), out.end());
+  // Place the decimal point: out · 10^exponent.
+  if (exponent >= 0) {
+    if (out != "0") out.append(static_cast<std::size_t>(exponent), '0');
+  } else {
+    const auto shift = static_cast<std::size_t>(-exponent);
+    if (out.size() <= shift) out = std::string(shift - out.size() + 1, '0') + out;
+    out = out.substr(0, out.size() - shift) + "." + out.substr(out.size() - shift);
+    while (out.back() == '0') out.pop_back();
+    if (out.back() == '.') out.pop_back();
+  }
+  return negative ? "-" + out : out;
+}
+
 std::filesystem::path pgm_stem(const std::filesystem::path& stem_in) {
   std::filesystem::path stem = stem_in;
   if (stem.extension() == ".pgm" || stem.extension() == ".yaml") stem.replace_extension();
@@ -65,8 +111,8 @@ void write_pgm_map(const std::filesystem::path& stem_in, const OccupancyGrid& gr
   y << "image: " << pgm.filename().string() << "\n"
     << "mode: trinary\n"
     << "resolution: " << shortest(grid.cell_size()) << "\n"
-    << "origin: [" << shortest(static_cast<double>(i_min) * grid.cell_size()) << ", "
-    << shortest(static_cast<double>(j_min) * grid.cell_size()) << ", 0.0]\n"
+    << "origin: [" << decimal_multiple(i_min, grid.cell_size()) << ", "
+    << decimal_multiple(j_min, grid.cell_size()) << ", 0.0]\n"
     << "negate: 0\n"
     << "occupied_thresh: " << shortest(params.occupied_thresh) << "\n"
     << "free_thresh: " << shortest(params.free_thresh) << "\n";
@@ -101,8 +147,8 @@ void write_costmap_pgm(const std::filesystem::path& stem_in, const Traversabilit
     << "image: " << pgm.filename().string() << "\n"
     << "mode: scale\n"
     << "resolution: " << shortest(layers.cell_size) << "\n"
-    << "origin: [" << shortest(static_cast<double>(layers.i_min) * layers.cell_size) << ", "
-    << shortest(static_cast<double>(layers.j_min) * layers.cell_size) << ", 0.0]\n"
+    << "origin: [" << decimal_multiple(layers.i_min, layers.cell_size) << ", "
+    << decimal_multiple(layers.j_min, layers.cell_size) << ", 0.0]\n"
     << "negate: 0\n"
     << "occupied_thresh: 0.995\n"
     << "free_thresh: 0.005\n";

@@ -1,7 +1,9 @@
 #pragma once
 // The 2D occupancy grid as ROS map_server / Nav2 read it: OUT.pgm + OUT.yaml.
 
+#include <cstdint>
 #include <filesystem>
+#include <string>
 
 #include "hmap/occupancy/occupancy_grid.hpp"
 #include "hmap/occupancy/traversability.hpp"
@@ -26,6 +28,11 @@ void write_pgm_map(const std::filesystem::path& stem, const OccupancyGrid& grid,
 /// 0 → 0 (free), 100 → 100 (lethal), between 1..99 within one unit. A PGM has no alpha channel,
 /// so unknown cells are written lethal (the YAML says so). Throws hmap::Error for empty layers.
 void write_costmap_pgm(const std::filesystem::path& stem, const TraversabilityLayers& layers);
+
+/// `index` · `cell` as the shortest exact decimal of the product of the integer and the shortest
+/// decimal of `cell` ("0.1" · −219 = "-21.9", where the double product prints as
+/// -21.900000000000002): the origin a YAML reader gets is the one a person would write.
+[[nodiscard]] std::string decimal_multiple(std::int64_t index, double cell);
 
 /// `stem` without a trailing .pgm or .yaml: the name write_pgm_map gives its two files.
 [[nodiscard]] std::filesystem::path pgm_stem(const std::filesystem::path& stem);
