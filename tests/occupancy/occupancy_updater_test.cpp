@@ -47,7 +47,9 @@ void twin_update(const ScanHVoxels& scan, const GroundModel& ground, const Param
     const double length = std::hypot(xt - xs, yt - ys);
     // Height of the lowest ray over the ground (linear from under the sensor to the target) at t.
     const auto clearance = [&](double t) { return (zs + t * (z_low - zs)) - (g_sensor + t * (g - g_sensor)); };
-    traverse_2d(xs, ys, xt, yt, cell, [&](const CellKey& key, double t_in, double t_out) {
+    // The whole walk from the sensor (the updater starts it late: RayTraceFromTest shows the tail is
+    // the same).
+    traverse_2d_from(xs, ys, xt, yt, cell, 0.0, [&](const CellKey& key, double t_in, double t_out) {
       const bool low = std::min(clearance(t_in), clearance(t_out)) <= op.free_ray_height;
       const double delta = key == target.key ? 0.0 : (0.5 * (t_in + t_out) - 1.0) * length;
       double p = 0.0;

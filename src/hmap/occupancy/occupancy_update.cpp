@@ -35,13 +35,12 @@ namespace {
 constexpr int kBlockBits = 2;  // ground lookup blocks of 4x4 cells
 constexpr double kCutoffEpsilon = 1e-4;
 
-/// Distance before the target beyond which both terms of eq. (4) are within ε of the floor K_g:
+/// Distance before the target beyond which a term of eq. (4) is within ε of the floor K_g:
 /// obstacle: max(ρ, 0.5)·exp(−δ²/2σ²) <= ε ⇐ |δ| >= σ·sqrt(2 ln(1/ε));
 /// ground: (0.5 − K_g) / (1 + exp(|δ|/d_pth)) <= ε ⇐ |δ| >= d_pth·ln((0.5 − K_g)/ε).
-double eq4_cutoff(const OccupancyParams& p) {
-  const double obstacle = p.sigma * std::sqrt(2.0 * std::log(1.0 / kCutoffEpsilon));
-  const double ground = p.ground_distance * std::log(std::max(0.5 - p.ground_gain, kCutoffEpsilon) / kCutoffEpsilon);
-  return std::max(obstacle, ground);
+double obstacle_cutoff(const OccupancyParams& p) { return p.sigma * std::sqrt(2.0 * std::log(1.0 / kCutoffEpsilon)); }
+double ground_cutoff(const OccupancyParams& p) {
+  return p.ground_distance * std::log(std::max(0.5 - p.ground_gain, kCutoffEpsilon) / kCutoffEpsilon);
 }
 
 }  // namespace
@@ -68,9 +67,10 @@ struct RayBuffer {
 struct OccupancyUpdater::Buffers : tbb::enumerable_thread_specific<RayBuffer> {};
 
 OccupancyUpdater::OccupancyUpdater(const Params& params)
-    : params_(params), cutoff_(0.0), buffers_(std::make_unique<Buffers>()) {
+    : params_(params), cutoff_(0.0), obstacle_cutoff_(0.0), buffers_(std::make_unique<Buffers>()) {
   validate(params_);
-  cutoff_ = eq4_cutoff(params_.occupancy);
+  obstacle_cutoff_ = obstacle_cutoff(params_.occupancy);
+  cutoff_ = std::max(obstacle_cutoff_, ground_cutoff(params_.occupancy));
 }
 
 OccupancyUpdater::~OccupancyUpdater() = default;
@@ -164,18 +164,23 @@ OccupancyUpdateStats OccupancyUpdater::update(const ScanHVoxels& scan, const Gro
       const ScanCell& target = scan.cells[c];
       buffer.judged.clear();
       double z_low = std::numeric_limits<double>::infinity();
+      bool any_ground = false;
       for (const HVoxel& v : scan.hvoxels_of(target)) {
         const HVoxelRole role = hvoxel_role(v, ground_z_[c], op);
         if (role == HVoxelRole::kIgnored) continue;
         buffer.judged.emplace_back(role, v.density);
         z_low = std::min(z_low, static_cast<double>(v.z_min));
+        any_ground = any_ground || role == HVoxelRole::kGround;
       }
       if (buffer.judged.empty()) continue;  // only ceilings, crowns or pits here: no evidence
       ++buffer.rays;
       const double xt = (target.key.i + 0.5) * cell;
       const double yt = (target.key.j + 0.5) * cell;
-      const double length = std::hypot(xt - xs, yt - ys);
-      const double t_cutoff = length > 0.0 ? 1.0 - cutoff_ / length : 0.0;
+      const double length = std::sqrt((xt - xs) * (xt - xs) + (yt - ys) * (yt - ys));
+      // The obstacle term fades within a few σ, the ground term within a few d_pth: a ray to
+      // obstacles alone evaluates eq. (4) over a much shorter stretch.
+      const double cutoff = any_ground ? cutoff_ : obstacle_cutoff_;
+      const double t_cutoff = length > 0.0 ? 1.0 - cutoff / length : 0.0;
       // Where the lowest ray to this cell (to its lowest judged HVoxel) runs at most
       // free_ray_height above the ground, with the ground taken linear from under the sensor to
       // here: only there is a pass evidence that nothing blocking stands in the cell. Higher, an
@@ -187,11 +192,10 @@ OccupancyUpdateStats OccupancyUpdater::update(const ScanHVoxels& scan, const Gro
       const std::pair<double, double> free_span = below_along(h_start, h_end, op.free_ray_height);
       const double t_free_lo = free_span.first;
       const double t_free_hi = free_span.second;
-      // Nothing before min(t_free_lo, t_cutoff) is touched. The walk still starts at the sensor:
-      // started halfway, it would cross a grid corner on the other side now and then.
+      // Nothing before min(t_free_lo, t_cutoff) is touched: the walk starts at the first cell
+      // leaving after it, exactly the cells (and t values) the whole walk has from there on.
       const double t_start = std::min(t_free_lo, t_cutoff);
-      traverse_2d(xs, ys, xt, yt, cell, [&](const CellKey& key, double t_in, double t_out) {
-        if (t_out < t_start) return true;
+      traverse_2d_from(xs, ys, xt, yt, cell, t_start, [&](const CellKey& key, double t_in, double t_out) {
         const bool low = t_out >= t_free_lo && t_in <= t_free_hi;
         float p = floor_p;
         if (t_out >= t_cutoff) {
@@ -216,6 +220,8 @@ OccupancyUpdateStats OccupancyUpdater::update(const ScanHVoxels& scan, const Gro
   });
 
   // eq. (3) once per cell with the largest p any thread saw; the buffers are left untouched (< 0).
+  // Most cells take the floor K_g: its log-odds are computed once.
+  const float floor_log_odds = log_odds(floor_p);
   for (RayBuffer& buffer : *buffers_) {
     stats.rays += buffer.rays;
     buffer.rays = 0;
@@ -228,7 +234,7 @@ OccupancyUpdateStats OccupancyUpdater::update(const ScanHVoxels& scan, const Gro
           other.p[index] = -1.0F;
         }
       }
-      grid.update(window.key_of(index), log_odds(p));
+      grid.update(window.key_of(index), p == floor_p ? floor_log_odds : log_odds(p));
       ++stats.cells;
     }
     buffer.touched.clear();

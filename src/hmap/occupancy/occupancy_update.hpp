@@ -77,7 +77,8 @@ class OccupancyUpdater {
                    OccupancyUpdateStats& stats);
 
   Params params_;
-  double cutoff_;
+  double cutoff_;           // the larger of the two terms' cutoffs
+  double obstacle_cutoff_;  // the obstacle term's alone
   std::unique_ptr<Buffers> buffers_;
   std::vector<double> ground_z_;            // per scan cell: local ground height, NaN none
   std::vector<std::int32_t> block_patch_;   // per 4x4 block: nearest patch, -1 none
