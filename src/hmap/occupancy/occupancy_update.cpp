@@ -34,6 +34,7 @@ double inverse_sensor_model(HVoxelRole role, double density, double delta, const
 namespace {
 constexpr int kBlockBits = 2;  // ground lookup blocks of 4x4 cells
 constexpr double kCutoffEpsilon = 1e-4;
+constexpr double kMaxBucketRim = 32.0;  // rings of buckets; patches larger than that: the kd-tree
 
 /// Distance before the target beyond which a term of eq. (4) is within ε of the floor K_g:
 /// obstacle: max(ρ, 0.5)·exp(−δ²/2σ²) <= ε ⇐ |δ| >= σ·sqrt(2 ln(1/ε));
@@ -77,6 +78,142 @@ OccupancyUpdater::~OccupancyUpdater() = default;
 OccupancyUpdater::OccupancyUpdater(OccupancyUpdater&&) noexcept = default;
 OccupancyUpdater& OccupancyUpdater::operator=(OccupancyUpdater&&) noexcept = default;
 
+void OccupancyUpdater::index_patches(const ScanWindow& window, const std::vector<GroundPatch>& patches) {
+  const double cell = params_.map.cell_size;
+  const double bucket = cell * (1 << kBlockBits);
+  // The rim: a patch more than rim buckets from a block's centre is beyond ground_reach of every
+  // cell of the block (Chebyshev distance from a cell >= Euclidean from the centre / √2 − 1.5 cells).
+  double max_half = 0.0;
+  for (const GroundPatch& p : patches) max_half = std::max(max_half, p.half_size);
+  const double rim = std::ceil(std::sqrt(2.0) * (params_.occupancy.ground_reach + max_half + 1.5 * cell) / bucket);
+  bucket_rim_ = rim <= kMaxBucketRim ? static_cast<std::int32_t>(rim) : -1;  // huge patches: the kd-tree
+  bucket_rows_ = 0;
+  bucket_cols_ = 0;
+  if (bucket_rim_ < 0) return;
+  // Bucket (a, b) is block (a, b) of the window, extended beyond it; the patches within rim buckets
+  // of the blocks are the only candidates.
+  const double x0 = static_cast<double>(window.center.i - window.half) * cell;
+  const double y0 = static_cast<double>(window.center.j - window.half) * cell;
+  const double lo = -bucket_rim_;
+  const double hi = static_cast<double>((window.width >> kBlockBits) + 1 + bucket_rim_);
+  std::int32_t a_min = std::numeric_limits<std::int32_t>::max(), a_max = std::numeric_limits<std::int32_t>::min();
+  std::int32_t b_min = a_min, b_max = a_max;
+  patch_bucket_.resize(patches.size());
+  for (std::size_t k = 0; k < patches.size(); ++k) {
+    const double fa = std::floor((patches[k].center.x() - x0) / bucket);
+    const double fb = std::floor((patches[k].center.y() - y0) / bucket);
+    patch_bucket_[k] = {std::numeric_limits<std::int32_t>::min(), 0};
+    if (!(fa >= lo && fb >= lo && fa < hi && fb < hi)) continue;  // NaN too
+    patch_bucket_[k] = {static_cast<std::int32_t>(fa), static_cast<std::int32_t>(fb)};
+    a_min = std::min(a_min, patch_bucket_[k].first);
+    a_max = std::max(a_max, patch_bucket_[k].first);
+    b_min = std::min(b_min, patch_bucket_[k].second);
+    b_max = std::max(b_max, patch_bucket_[k].second);
+  }
+  if (a_min > a_max) return;  // no patch near the window
+  // The grid: the patches' bounding box and rim buckets around it. A block outside is farther than
+  // rim buckets from every candidate.
+  bucket_a0_ = a_min - bucket_rim_;
+  bucket_b0_ = b_min - bucket_rim_;
+  bucket_rows_ = a_max - a_min + 1 + 2 * bucket_rim_;
+  bucket_cols_ = b_max - b_min + 1 + 2 * bucket_rim_;
+  const auto rows = static_cast<std::size_t>(bucket_rows_);
+  const auto cols = static_cast<std::size_t>(bucket_cols_);
+  const std::size_t n_buckets = rows * cols;
+  const auto bucket_index = [&](const std::pair<std::int32_t, std::int32_t>& ab) {
+    return static_cast<std::size_t>(ab.first - bucket_a0_) * cols + static_cast<std::size_t>(ab.second - bucket_b0_);
+  };
+  // Counting sort of the candidates by bucket, in index order within a bucket.
+  bucket_begin_.assign(n_buckets + 1, 0);
+  for (std::size_t k = 0; k < patches.size(); ++k) {
+    if (patch_bucket_[k].first != std::numeric_limits<std::int32_t>::min()) ++bucket_begin_[bucket_index(patch_bucket_[k]) + 1];
+  }
+  for (std::size_t b = 0; b < n_buckets; ++b) bucket_begin_[b + 1] += bucket_begin_[b];
+  bucket_patches_.resize(bucket_begin_[n_buckets]);
+  bucket_fill_.assign(bucket_begin_.begin(), bucket_begin_.end() - 1);
+  for (std::size_t k = 0; k < patches.size(); ++k) {
+    if (patch_bucket_[k].first != std::numeric_limits<std::int32_t>::min()) {
+      bucket_patches_[bucket_fill_[bucket_index(patch_bucket_[k])]++] = static_cast<std::int32_t>(k);
+    }
+  }
+  // Per bucket, the Chebyshev distance (in buckets, at most rim + 1) to the nearest bucket holding a
+  // patch, in two passes: the search skips the empty rings, and a block far from every patch costs
+  // one read.
+  const auto cap = static_cast<std::uint16_t>(bucket_rim_ + 1);
+  empty_rings_.resize(n_buckets);
+  for (std::size_t b = 0; b < n_buckets; ++b) empty_rings_[b] = bucket_begin_[b + 1] > bucket_begin_[b] ? 0 : cap;
+  const auto relax = [&](std::size_t b, std::size_t from) {
+    empty_rings_[b] = std::min<std::uint16_t>(empty_rings_[b], static_cast<std::uint16_t>(empty_rings_[from] + 1));
+  };
+  for (std::size_t i = 0; i < rows; ++i) {
+    for (std::size_t j = 0; j < cols; ++j) {
+      const std::size_t b = i * cols + j;
+      if (j > 0) relax(b, b - 1);
+      if (i > 0) {
+        relax(b, b - cols);
+        if (j > 0) relax(b, b - cols - 1);
+        if (j + 1 < cols) relax(b, b - cols + 1);
+      }
+    }
+  }
+  for (std::size_t i = rows; i-- > 0;) {
+    for (std::size_t j = cols; j-- > 0;) {
+      const std::size_t b = i * cols + j;
+      if (j + 1 < cols) relax(b, b + 1);
+      if (i + 1 < rows) {
+        relax(b, b + cols);
+        if (j + 1 < cols) relax(b, b + cols + 1);
+        if (j > 0) relax(b, b + cols - 1);
+      }
+    }
+  }
+}
+
+std::int32_t OccupancyUpdater::nearest_patch(std::int32_t bi, std::int32_t bj, double x, double y,
+                                             const std::vector<GroundPatch>& patches) const {
+  // (x, y) is the centre of bucket (bi, bj). Every patch in ring r + 1 or beyond lies at least
+  // (r + 0.5) buckets away, every patch off the grid more than rim buckets away: the search stops
+  // as soon as the best is that near. Within rim buckets it is exact; beyond, no cell of the block
+  // is within ground_reach of any patch (index_patches), so none is as good.
+  const std::int32_t ci = bi - bucket_a0_;
+  const std::int32_t cj = bj - bucket_b0_;
+  if (ci < 0 || cj < 0 || ci >= bucket_rows_ || cj >= bucket_cols_) return -1;
+  const auto cols = static_cast<std::size_t>(bucket_cols_);
+  const std::int32_t first_ring = empty_rings_[static_cast<std::size_t>(ci) * cols + static_cast<std::size_t>(cj)];
+  if (first_ring > bucket_rim_) return -1;
+  const double bucket = params_.map.cell_size * (1 << kBlockBits);
+  std::int32_t best = -1;
+  double best_d2 = std::numeric_limits<double>::infinity();
+  const auto visit = [&](std::int32_t i, std::int32_t j) {
+    if (i < 0 || j < 0 || i >= bucket_rows_ || j >= bucket_cols_) return;
+    const std::size_t b = static_cast<std::size_t>(i) * cols + static_cast<std::size_t>(j);
+    for (std::uint32_t k = bucket_begin_[b]; k < bucket_begin_[b + 1]; ++k) {
+      const std::int32_t p = bucket_patches_[k];
+      const double dx = patches[static_cast<std::size_t>(p)].center.x() - x;
+      const double dy = patches[static_cast<std::size_t>(p)].center.y() - y;
+      const double d2 = dx * dx + dy * dy;
+      if (d2 < best_d2 || (d2 == best_d2 && p < best)) {
+        best_d2 = d2;
+        best = p;
+      }
+    }
+  };
+  for (std::int32_t r = first_ring; r <= bucket_rim_; ++r) {
+    for (std::int32_t di = -r; di <= r; ++di) {
+      if (di == -r || di == r) {
+        for (std::int32_t dj = -r; dj <= r; ++dj) visit(ci + di, cj + dj);
+      } else {
+        visit(ci + di, cj - r);
+        visit(ci + di, cj + r);
+      }
+    }
+    const double reach = (r + 0.5) * bucket;
+    if (best_d2 <= reach * reach) return best;
+  }
+  const double exact = bucket_rim_ * bucket;
+  return best_d2 <= exact * exact ? best : -1;
+}
+
 void OccupancyUpdater::find_ground(const ScanHVoxels& scan, const ScanWindow& window, const GroundModel& ground,
                                    OccupancyUpdateStats& stats) {
   const OccupancyParams& op = params_.occupancy;
@@ -94,6 +231,7 @@ void OccupancyUpdater::find_ground(const ScanHVoxels& scan, const ScanWindow& wi
   }
   const std::size_t blocks_per_side = (static_cast<std::size_t>(window.width) >> kBlockBits) + 1;
   const auto& patches = ground.patches();
+  index_patches(window, patches);
   ground_z_.resize(scan.cells.size());
   for (std::size_t c = 0; c < scan.cells.size(); ++c) {
     const CellKey& key = scan.cells[c].key;
@@ -109,7 +247,9 @@ void OccupancyUpdater::find_ground(const ScanHVoxels& scan, const ScanWindow& wi
       const double half_block = 0.5 * cell * (1 << kBlockBits);
       const double xb = (static_cast<double>(bi << kBlockBits) - window.half + window.center.i) * cell + half_block;
       const double yb = (static_cast<double>(bj << kBlockBits) - window.half + window.center.j) * cell + half_block;
-      block_patch_[b] = ground.nearest_index(xb, yb);
+      block_patch_[b] = bucket_rim_ >= 0
+                            ? nearest_patch(static_cast<std::int32_t>(bi), static_cast<std::int32_t>(bj), xb, yb, patches)
+                            : ground.nearest_index(xb, yb);
     }
     const std::int32_t patch_index = block_patch_[b];
     if (patch_index < 0) {

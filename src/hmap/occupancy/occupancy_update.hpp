@@ -56,7 +56,8 @@ struct OccupancyUpdateStats {
 /// Two shortcuts, both exact to 1e-4 in probability: farther than `cutoff()` before its HVoxel's
 /// cell a ray's p is the floor K_g, so eq. (4) is only evaluated near the end of each ray; and the
 /// local ground of a cell is the plane of the patch nearest to the centre of its 4x4-cell block,
-/// looked up once per block and scan.
+/// looked up once per block and scan (in buckets of the patches near the window, rebuilt per scan).
+/// Each ray's walk starts at the first cell it can change (traverse_2d_from).
 class OccupancyUpdater {
  public:
   /// Throws hmap::Error for invalid parameters.
@@ -75,6 +76,12 @@ class OccupancyUpdater {
   struct Buffers;  // one RayBuffer per thread (TBB, kept out of this header)
   void find_ground(const ScanHVoxels& scan, const ScanWindow& window, const GroundModel& ground,
                    OccupancyUpdateStats& stats);
+  /// Buckets of one block each over the window and a rim, holding the patches whose centre is there.
+  void index_patches(const ScanWindow& window, const std::vector<GroundPatch>& patches);
+  /// The patch nearest to (x, y), the centre of block (bi, bj), from the buckets (ties: the lowest
+  /// index); −1 when none lies within the rim, where no patch is within ground_reach of the block.
+  [[nodiscard]] std::int32_t nearest_patch(std::int32_t bi, std::int32_t bj, double x, double y,
+                                           const std::vector<GroundPatch>& patches) const;
 
   Params params_;
   double cutoff_;           // the larger of the two terms' cutoffs
@@ -85,6 +92,19 @@ class OccupancyUpdater {
   std::vector<std::uint32_t> block_stamp_;  // scan number the entry was computed for
   std::uint32_t stamp_ = 0;
   std::int32_t window_width_ = -1;          // the blocks above are laid out for this width
+  // The ground patches near the window in buckets of one block (counting sort, rebuilt per scan):
+  // the nearest patch of a block in a few bucket reads instead of a query of the kd-tree's forest.
+  // Bucket (a, b) is the window's block (a, b); the grid holds rows × cols buckets from (a0, b0).
+  std::int32_t bucket_rim_ = 0;             // rings searched at most; −1: the kd-tree answers
+  std::int32_t bucket_a0_ = 0;
+  std::int32_t bucket_b0_ = 0;
+  std::int32_t bucket_rows_ = 0;
+  std::int32_t bucket_cols_ = 0;
+  std::vector<std::uint32_t> bucket_begin_;  // per bucket: first entry in bucket_patches_, + end
+  std::vector<std::uint32_t> bucket_fill_;
+  std::vector<std::int32_t> bucket_patches_;
+  std::vector<std::pair<std::int32_t, std::int32_t>> patch_bucket_;  // per patch: its bucket, INT_MIN: none
+  std::vector<std::uint16_t> empty_rings_;   // per bucket: rings to the nearest patch's bucket
 };
 
 /// One scan with a fresh OccupancyUpdater (allocates its buffers: prefer the class scan after scan).
