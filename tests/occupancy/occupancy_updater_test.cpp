@@ -98,7 +98,8 @@ std::size_t twin_update(const ScanHVoxels& scan, const GroundModel& ground, cons
       if (!low && p <= 0.5 && !(key == target.key)) return true;  // a high pass tells nothing
       p = std::clamp(p, op.ground_gain, op.clamp_max);
       auto [it, fresh] = p_of_cell.try_emplace(key, p);
-      if (!fresh) it->second = std::max(it->second, p);
+      // A hit outranks a pass; between passes the clearer wins.
+      if (!fresh) it->second = it->second > 0.5 || p > 0.5 ? std::max(it->second, p) : std::min(it->second, p);
       return true;
     });
   }
@@ -205,6 +206,31 @@ TEST(OccupancyUpdaterTest, MatchesTheTwinOnPatchyGround) {
     ASSERT_TRUE(f.has_value());
     EXPECT_NEAR(*f, l, 6 * 2e-3) << "cell " << key.i << ", " << key.j;
   });
+}
+
+// Hand-computed: a ground cell 2 m from the sensor is its own ray's target (eq. 4 at delta = 0:
+// K_g + (0.5 - K_g) / 2 = 0.4) and lies under the low end of the ray to ground 2.2 m away (far
+// before that target: K_g = 0.3). The clearer pass wins: one update with 0.3. An obstacle there
+// would outrank both.
+TEST(OccupancyUpdaterTest, TheClearerPassWinsAHitOutranksBoth) {
+  Params p = params();
+  p.occupancy.free_ray_height = 100.0;  // every crossed cell may be freed
+  const GroundModel ground({GroundPatch{{0.0, 0.0, 0.0}, Eigen::Vector3d(0.0, 0.0, 1.0), 1000.0, -1}});
+  const auto scan_of = [](float z_max_near) {
+    ScanHVoxels scan;
+    scan.origin_map = {0.1, 0.1, 1.5};  // the centre of cell (0, 0)
+    scan.cells = {{{10, 0}, 0, 1}, {{21, 0}, 1, 1}};
+    scan.hvoxels = {{-0.01F, z_max_near, 9.0F, 0.9F}, {-0.01F, 0.01F, 9.0F, 0.9F}};
+    return scan;
+  };
+  OccupancyUpdater updater(p);
+  OccupancyGrid grid(p.map.cell_size, p.occupancy.clamp_min, p.occupancy.clamp_max);
+  updater.update(scan_of(0.01F), ground, grid);
+  EXPECT_NEAR(*grid.log_odds_at({10, 0}), log_odds(0.3), 1e-6);
+  EXPECT_NEAR(*grid.log_odds_at({21, 0}), log_odds(0.4), 1e-6);
+  OccupancyGrid with_box(p.map.cell_size, p.occupancy.clamp_min, p.occupancy.clamp_max);
+  updater.update(scan_of(0.8F), ground, with_box);  // a box 0.8 m tall in cell (10, 0)
+  EXPECT_NEAR(*with_box.log_odds_at({10, 0}), log_odds(0.9), 1e-6);  // max(rho, 0.5) * exp(0)
 }
 
 TEST(OccupancyUpdaterTest, CutoffIsWhereEq4ReachesItsFloor) {

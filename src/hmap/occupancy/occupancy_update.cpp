@@ -57,6 +57,11 @@ std::pair<double, double> below_along(double h_start, double h_end, double limit
 }
 
 namespace {
+/// Two rays' p for one cell of one scan, as one: a hit outranks a pass (the larger, when either
+/// says occupied, p > 0.5); between passes the clearer wins (the smaller). Commutative and
+/// associative: over a set, its largest p when that is above 0.5, else its smallest.
+float combine_in_scan(float a, float b) { return a > 0.5F || b > 0.5F ? std::max(a, b) : std::min(a, b); }
+
 struct RayBuffer {
   std::vector<float> p;                 // per window cell: max p of this scan, < 0 untouched
   std::vector<std::uint32_t> touched;   // window cells with p >= 0
@@ -352,8 +357,12 @@ OccupancyUpdateStats OccupancyUpdater::update(const ScanHVoxels& scan, const Gro
         }
         const std::size_t index = window.index(key);
         float& slot = buffer.p[index];
-        if (slot < 0.0F) buffer.touched.push_back(static_cast<std::uint32_t>(index));
-        slot = std::max(slot, p);
+        if (slot < 0.0F) {
+          buffer.touched.push_back(static_cast<std::uint32_t>(index));
+          slot = p;
+        } else {
+          slot = combine_in_scan(slot, p);
+        }
         return true;
       });
     }
@@ -370,7 +379,7 @@ OccupancyUpdateStats OccupancyUpdater::update(const ScanHVoxels& scan, const Gro
       if (p < 0.0F) continue;  // merged already from an earlier buffer
       for (RayBuffer& other : *buffers_) {
         if (other.p.size() > index) {
-          p = std::max(p, other.p[index]);
+          if (other.p[index] >= 0.0F) p = combine_in_scan(p, other.p[index]);
           other.p[index] = -1.0F;
         }
       }
