@@ -99,7 +99,7 @@ std::size_t twin_update(const ScanHVoxels& scan, const GroundModel& ground, cons
       p = std::clamp(p, op.ground_gain, op.clamp_max);
       auto [it, fresh] = p_of_cell.try_emplace(key, p);
       // A hit outranks a pass; between passes the clearer wins.
-      if (!fresh) it->second = it->second > 0.5 || p > 0.5 ? std::max(it->second, p) : std::min(it->second, p);
+      if (!fresh) it->second = it->second >= 0.5 || p >= 0.5 ? std::max(it->second, p) : std::min(it->second, p);
       return true;
     });
   }

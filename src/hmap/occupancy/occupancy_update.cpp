@@ -57,10 +57,11 @@ std::pair<double, double> below_along(double h_start, double h_end, double limit
 }
 
 namespace {
-/// Two rays' p for one cell of one scan, as one: a hit outranks a pass (the larger, when either
-/// says occupied, p > 0.5); between passes the clearer wins (the smaller). Commutative and
-/// associative: over a set, its largest p when that is above 0.5, else its smallest.
-float combine_in_scan(float a, float b) { return a > 0.5F || b > 0.5F ? std::max(a, b) : std::min(a, b); }
+/// Two rays' p for one cell of one scan, as one: a hit outranks a pass (the larger, when either is
+/// at least 0.5: an obstacle's own cell, however thin its density); between passes the clearer
+/// wins (the smaller). Commutative and associative: over a set, its largest p when that is at
+/// least 0.5, else its smallest.
+float combine_in_scan(float a, float b) { return a >= 0.5F || b >= 0.5F ? std::max(a, b) : std::min(a, b); }
 
 struct RayBuffer {
   std::vector<float> p;                 // per window cell: max p of this scan, < 0 untouched

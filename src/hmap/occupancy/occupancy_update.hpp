@@ -43,7 +43,7 @@ struct OccupancyUpdateStats {
 /// Updates the 2D grid with one scan after another, reusing its buffers (nothing is allocated per
 /// scan once warm). Each cell on the path from the sensor's cell to a scan cell (both included)
 /// takes p(c|z) = max over that cell's HVoxels of eq. (4); a cell reached by several rays keeps
-/// the largest p of the scan when one says occupied (p > 0.5: a hit outranks a pass-through), else
+/// the largest p of the scan when one is a hit (p >= 0.5: a hit outranks a pass-through), else
 /// the smallest (the clearest pass: a ground cell's own ray gives 0.4 at δ = 0, a ray passing low
 /// over it K_g), and is then updated once by eq. (3). p is floored at K_g: in front of an obstacle the obstacle term tends to 0, which would
 /// otherwise be certainty of free space from a single scan.
