@@ -160,13 +160,18 @@ void make_gravity_aligned(ScanSource& src, const ScanSourceOptions& o, bool rgbd
         points_world.push_back((poses[k] * cloud[i].cast<double>()).cast<float>());
       }
     }
-    const FloorEstimate floor = estimate_floor(points_world, prior);
+    FloorEstimate floor = estimate_floor(points_world, prior);
     if (!floor.found) {
       throw Error("no floor plane found in " + std::to_string(frames) + " frames; give the up axis with --up AXIS");
     }
+    std::vector<Eigen::Vector3d> sensors;
+    for (const auto& T : poses) sensors.push_back(T.translation());
+    const bool flipped = orient_floor_below_sensors(floor, sensors, prior);
     T_map_world = gravity_rotation(floor.up_world);
-    src.description += format("%sup from the floor plane (%.3f, %.3f, %.3f), %zu of %zu points on it", src.description.empty() ? "" : "; ", floor.up_world.x(),
-                  floor.up_world.y(), floor.up_world.z(), floor.inliers, floor.points);
+    src.description += format("%sup from the floor plane (%.3f, %.3f, %.3f)%s, %zu of %zu points on it",
+                              src.description.empty() ? "" : "; ", floor.up_world.x(), floor.up_world.y(),
+                              floor.up_world.z(), flipped ? " (turned to face the sensors above it)" : "",
+                              floor.inliers, floor.points);
   } else {
     T_map_world = gravity_rotation(parse_up_axis(up));
     src.description += (src.description.empty() ? "" : "; ") + std::string("world up axis ") + up;

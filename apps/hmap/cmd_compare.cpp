@@ -175,12 +175,13 @@ void run_compare(const CompareOptions& o) {
   const TopViewport vp = viewport_over(st.bounds.min().x(), st.bounds.min().y(), st.bounds.max().x(),
                                        st.bounds.max().y(), params.map.cell_size, o.max_pixels);
   const HMap display_25d = elevation_display(elevation.map());
+  const GridReading reading = GridReading::for_map(params.occupancy);
   const RgbImage top = side_by_side({{"I point cloud", render_points_top(cloud_map, range, vp)},
                                      {"II HMAP", render_top_in(hmap_cut, range, vp)},
-                                     {"III HMAP 2D grid, kept scan by scan", render_occupancy(hybrid.grid(), vp)},
-                                     {"IIIb HMAP 2D grid judged from the final map", render_occupancy(grid_final, vp)},
+                                     {"III HMAP 2D grid, kept scan by scan", render_occupancy(hybrid.grid(), vp, reading)},
+                                     {"IIIb HMAP 2D grid judged from the final map", render_occupancy(grid_final, vp, reading)},
                                      {"IV 2.5D", render_top_in(display_25d, range, vp)},
-                                     {"V 2D grid of the 2.5D map", render_occupancy(grid_25d, vp)}});
+                                     {"V 2D grid of the 2.5D map", render_occupancy(grid_25d, vp, reading)}});
   const auto out = [&](const char* name) { return (std::filesystem::path(o.out) / name).string(); };
   write_png(out("compare_top.png"), top);
   const int oblique_px = std::max(300, o.max_pixels * 2 / 3);
@@ -219,10 +220,12 @@ void run_compare(const CompareOptions& o) {
     const auto both = [&](const CellKey& key) {
       return hybrid.grid().probability_at(key).has_value() && grid_25d.probability_at(key).has_value();
     };
-    g_hmap = score_grid(hybrid.grid(), truth_2d, both);
-    g_hmap_final = score_grid(grid_final, truth_2d, both);
-    g_hmap_fused = score_grid(grid_fused, truth_2d, both);
-    g_25d = score_grid(grid_25d, truth_2d, both);
+    // Every grid read as export --pgm writes a map: free from p <= K_g, occupied above 0.65.
+    const GridReading read_as = GridReading::for_map(params.occupancy);
+    g_hmap = score_grid(hybrid.grid(), truth_2d, both, read_as);
+    g_hmap_final = score_grid(grid_final, truth_2d, both, read_as);
+    g_hmap_fused = score_grid(grid_fused, truth_2d, both, read_as);
+    g_25d = score_grid(grid_25d, truth_2d, both, read_as);
     if (!o.skip_octomap) {
       // What a ROS user gets from this OctoMap: octomap_server's projection of the band between
       // the step and the robot's height, over the same local ground as HMAP's grid.
@@ -231,7 +234,7 @@ void run_compare(const CompareOptions& o) {
       band.max_height = robot_height;
       band.ground_reach = params.occupancy.ground_reach;
       g_octo = score_grid(project_octomap(octree, hybrid.ground(), params.map.cell_size, params.occupancy, band), truth_2d,
-                          both);
+                          both, read_as);
     }
   }
 
@@ -312,7 +315,7 @@ void run_compare(const CompareOptions& o) {
       lines.push_back(std::move(j));
     }
     md << "\nCells both HMAP's kept grid and the 2.5D grid observed where the truth has a surface, each grid "
-          "scored on those it decided (map_server thresholds: occupied >= 0.65, free <= 0.196). Overhang cells: free "
+          "scored on those it decided as export --pgm writes them (occupied above 0.65, free from p <= K_g). Overhang cells: free "
           "ground under something higher than the robot and below the 2.5D map's cut (table tops, tree crowns, low "
           "ceilings). The OctoMap row: occupied leaves whose centre lies between the step and the robot's height "
           "above the local ground (HMAP's ground patches) make a cell occupied, free leaves there free.\n";

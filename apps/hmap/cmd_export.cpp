@@ -36,14 +36,14 @@ struct ExportOptions {
   double z_step = 0.0;
 };
 
-/// Occupied and free cells as the written PGM holds them: with the file's own thresholds
-/// (map_server's 0.65 / 0.196), not at p = 0.5; cells in between are unknown in the file.
-std::pair<std::size_t, std::size_t> count_classes(const OccupancyGrid& grid, const PgmExportParams& pgm = {}) {
+/// Occupied and free cells as the written PGM holds them (the pixels 0 and 254), by the reading
+/// that wrote them; cells in between are unknown in the file.
+std::pair<std::size_t, std::size_t> count_classes(const OccupancyGrid& grid, const PgmExportParams& pgm) {
   std::size_t occupied = 0, free_cells = 0;
   grid.for_each_cell([&](const CellKey&, float l) {
-    const double p = probability(l);
-    if (p > pgm.occupied_thresh) ++occupied;
-    if (p < pgm.free_thresh) ++free_cells;
+    const CellClass c = pgm.reading.classify(probability(l));
+    occupied += c == CellClass::kOccupied ? 1 : 0;
+    free_cells += c == CellClass::kFree ? 1 : 0;
   });
   return {occupied, free_cells};
 }
@@ -193,11 +193,14 @@ void run_export(const ExportOptions& o) {
   if (!o.pgm.empty() || !o.costmap.empty() || !o.geotiff.empty()) {
     const GridChoice& choice = *chosen;
     if (!o.pgm.empty()) {
-      write_pgm_map(o.pgm, choice.grid);
-      const auto [occupied, free_cells] = count_classes(choice.grid);
-      std::printf("wrote %s.pgm + .yaml: %zu occupied and %zu free cells (map_server thresholds 0.65 / 0.196) of %.3f m, %s\n",
-                  std::filesystem::path(o.pgm).replace_extension().string().c_str(), occupied, free_cells,
-                  map.cell_size(), choice.what.c_str());
+      // Free from one clear ground pass on (p <= K_g), occupied above 0.65 (GridReading::for_map).
+      PgmExportParams pgm;
+      pgm.reading = GridReading::for_map(map.params().occupancy);
+      write_pgm_map(o.pgm, choice.grid, pgm);
+      const auto [occupied, free_cells] = count_classes(choice.grid, pgm);
+      std::printf("wrote %s.pgm + .yaml: %zu occupied (p > %.2f) and %zu free (p <= %.3g) cells of %.3f m, %s\n",
+                  std::filesystem::path(o.pgm).replace_extension().string().c_str(), occupied, pgm.reading.occupied_above,
+                  free_cells, pgm.reading.free_at_most, map.cell_size(), choice.what.c_str());
     }
     if (!o.costmap.empty() || !o.geotiff.empty()) export_traversability(choice, o);
   }

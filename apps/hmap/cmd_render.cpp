@@ -86,7 +86,7 @@ void run_render(const RenderOptions& o) {
   RgbImage img = render_top(map, range, o.max_pixels, vp, paths.empty() ? 0.0 : 2.0);
   if (o.layer == "occupancy") {
     // map_server's picture of the grid: free white, occupied black, unknown grey.
-    img = render_occupancy(*file.grid, vp);
+    img = render_occupancy(*file.grid, vp, GridReading::for_map(map.params().occupancy));
   } else if (o.layer == "ground") {
     draw_ground_patches(img, vp, file.ground, 255, 255, 255);
   }

@@ -243,7 +243,7 @@ RgbImage render_top_in(const HMap& map, const HeightRange& range_in, const TopVi
   return img;
 }
 
-RgbImage render_occupancy(const OccupancyGrid& grid, const TopViewport& vp) {
+RgbImage render_occupancy(const OccupancyGrid& grid, const TopViewport& vp, const GridReading& reading) {
   RgbImage img(vp.width, vp.height, 205);
   const double cell = grid.cell_size();
   // Cells larger than a pixel cover several; smaller ones share one, the most occupied winning.
@@ -264,8 +264,9 @@ RgbImage render_occupancy(const OccupancyGrid& grid, const TopViewport& vp) {
         float& slot = best[static_cast<std::size_t>(yy) * static_cast<std::size_t>(vp.width) + static_cast<std::size_t>(xx)];
         if (p <= slot) continue;
         slot = p;
-        // map_server's trinary classes with its default thresholds, as Nav2 will see the map.
-        const std::uint8_t grey = p > 0.65F ? 0 : p < 0.196F ? 255 : 205;
+        // The classes export --pgm writes, as Nav2 will see the map.
+        const CellClass c = reading.classify(p);
+        const std::uint8_t grey = c == CellClass::kOccupied ? 0 : c == CellClass::kFree ? 255 : 205;
         img.set(xx, yy, grey, grey, grey);
       }
     }

@@ -9,6 +9,7 @@
 
 #include "hmap/io/png.hpp"
 #include "hmap/maps/hmap.hpp"
+#include "hmap/occupancy/grid_reading.hpp"
 
 namespace hmap::cli {
 
@@ -65,9 +66,10 @@ namespace hmap::cli {
 /// Top-down as render_top, in a given viewport.
 [[nodiscard]] RgbImage render_top_in(const HMap& map, const HeightRange& range, const TopViewport& viewport);
 
-/// The 2D occupancy grid as map_server reads it in trinary mode with its default thresholds:
-/// p > 0.65 black (occupied), p < 0.196 white (free), uncertain and never-observed cells grey (205).
-[[nodiscard]] RgbImage render_occupancy(const OccupancyGrid& grid, const TopViewport& viewport);
+/// The 2D occupancy grid as `export --pgm` writes it for map_server: occupied black, free white,
+/// undecided and never-observed cells grey (205), decided by `reading` (GridReading::for_map).
+[[nodiscard]] RgbImage render_occupancy(const OccupancyGrid& grid, const TopViewport& viewport,
+                                        const GridReading& reading);
 
 /// Points seen from above, coloured by the highest point per pixel (the raw cloud panel).
 [[nodiscard]] RgbImage render_points_top(const PointCloud& points_map, const HeightRange& range,

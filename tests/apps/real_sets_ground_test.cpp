@@ -53,7 +53,7 @@ TEST_P(RealSetsGroundTest, GroundAndGridAtDefaults) {
   std::filesystem::remove_all(dir);
 }
 
-// Figures at the time of writing (docs/HMAP.md): 208, 1120, 9, 13, 43, 90, 8, 92 patches. The Kinect
+// Figures at the time of writing (docs/HMAP.md): 208, 1120, 9, 13, 12, 43, 90, 8, 92 patches. The Kinect
 // files' VIEWPOINT (180° about x) is applied when they are read: their up axis is +y, not the camera's -y.
 INSTANTIATE_TEST_SUITE_P(
     Sets, RealSetsGroundTest,
@@ -62,6 +62,10 @@ INSTANTIATE_TEST_SUITE_P(
         RealSet{"balm_os0", "balm_os0", "--kitti {D}/balm_os0", 200},
         RealSet{"rgbd_7scenes", "rgbd_7scenes", "--rgbd {D}/rgbd_7scenes --preset indoor", 5},
         RealSet{"kinect_office", "kinect_pcd", "{D}/kinect_pcd/office1.pcd --poses {ID} --preset indoor --up y", 5},
+        // A grabber frame of a Kinect pitched about 42 degrees down at the floor: no axis is up, the
+        // floor plane gives it (and must face the camera above it).
+        RealSet{"kinect_grabber_frame", "kinect_pcd",
+                "{D}/kinect_pcd/frame_20121214T142255.814212.pcd --poses {ID} --preset indoor --up floor", 5},
         RealSet{"hdl32", "hdl32_pair", "{D}/hdl32_pair/251370668.pcd --poses {ID}", 20},
         RealSet{"eth_car_vtk", "sweeping_laser_eth", "{D}/sweeping_laser_eth/cloud.00000.vtk --poses {ID}", 20},
         RealSet{"eth_apartment_vtk", "sweeping_laser_eth", "{D}/sweeping_laser_eth/cloud_0.vtk --poses {ID}", 5},

@@ -81,6 +81,27 @@ TEST(PgmExportTest, OriginsAreTheShortestExactDecimal) {
   std::filesystem::remove_all(dir);
 }
 
+// One clear ground pass (p = K_g = 0.3, stored as float log-odds) is free when the map's own reading
+// is used, undecided with map_server's 0.196; the YAML stays map_server's either way.
+TEST(PgmExportTest, OnePassIsFreeByTheMapsReading) {
+  const auto dir = test::temp_dir("pgm_reading");
+  OccupancyGrid g(0.05, 0.12, 0.97);
+  g.update({0, 0}, log_odds(0.3));  // one pass over the ground
+  g.update({1, 0}, log_odds(0.4));  // a ground cell's own ray at delta = 0: undecided either way
+  PgmExportParams params;
+  params.reading = GridReading::for_map(outdoor_preset().occupancy);
+  for (const bool own : {false, true}) {
+    write_pgm_map(dir / "m", g, own ? params : PgmExportParams{});
+    const std::string pgm = slurp(dir / "m.pgm");
+    ASSERT_GE(pgm.size(), 2U);
+    const std::string px = pgm.substr(pgm.size() - 2);  // one row of two cells
+    EXPECT_EQ(static_cast<unsigned char>(px[0]), own ? 254 : 205);
+    EXPECT_EQ(static_cast<unsigned char>(px[1]), 205);
+    EXPECT_NE(slurp(dir / "m.yaml").find("free_thresh: 0.196"), std::string::npos);
+  }
+  std::filesystem::remove_all(dir);
+}
+
 TEST(PgmExportTest, EmptyGridIsAnError) {
   const auto dir = test::temp_dir("pgm_empty");
   OccupancyGrid g(0.05, 0.12, 0.97);

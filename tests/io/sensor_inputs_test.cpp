@@ -160,6 +160,33 @@ TEST_F(SensorInputsTest, GravityFromAxisRotationAndFloor) {
   EXPECT_FALSE(estimate_floor({}, Eigen::Vector3d::UnitZ()).found);
 }
 
+// A camera pitched 45 degrees down at a floor 0.7 m below it, read with a scanner's +z as the prior
+// (the kinect_pcd grabber frames): the plane comes out facing away from the camera and is turned.
+// A ceiling above a level scanner keeps the prior's side.
+TEST(GravityTest, FloorIsTurnedToFaceTheSensorsAboveIt) {
+  const double c = std::sqrt(0.5);
+  FloorEstimate floor;
+  floor.found = true;
+  floor.up_world = Eigen::Vector3d(0.0, c, c);  // the floor's normal in the optical frame, wrong side
+  floor.height = 0.7;                            // the camera at the origin lies below: -0.7
+  const std::vector<Eigen::Vector3d> camera{Eigen::Vector3d::Zero()};
+  EXPECT_TRUE(orient_floor_below_sensors(floor, camera, Eigen::Vector3d::UnitZ()));
+  EXPECT_NEAR(floor.up_world.y(), -c, 1e-12);
+  EXPECT_NEAR(floor.up_world.dot(Eigen::Vector3d::Zero()) - floor.height, 0.7, 1e-12);  // 0.7 m above it
+  EXPECT_FALSE(orient_floor_below_sensors(floor, camera, Eigen::Vector3d::UnitZ()));  // now right
+  FloorEstimate ceiling;
+  ceiling.found = true;
+  ceiling.up_world = Eigen::Vector3d::UnitZ();
+  ceiling.height = 2.5;
+  EXPECT_FALSE(orient_floor_below_sensors(ceiling, camera, Eigen::Vector3d::UnitZ()));
+  EXPECT_DOUBLE_EQ(ceiling.up_world.z(), 1.0);
+  // One sensor above the plane: a floor, whatever the others.
+  floor.up_world = Eigen::Vector3d(0.0, c, c);
+  floor.height = 0.7;
+  const std::vector<Eigen::Vector3d> two{Eigen::Vector3d::Zero(), Eigen::Vector3d(0.0, 1.0, 1.0)};
+  EXPECT_FALSE(orient_floor_below_sensors(floor, two, Eigen::Vector3d::UnitZ()));
+}
+
 TEST_F(SensorInputsTest, SevenScenesAllFramesLoad) {
   HMAP_REQUIRE_DATA("rgbd_7scenes");
   const RgbdSequence seq = open_rgbd_sequence(test::data_dir() / "rgbd_7scenes");

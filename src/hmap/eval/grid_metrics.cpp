@@ -58,15 +58,16 @@ TrueTraversability true_traversability(const PointCloud& truth, const PointCloud
 }
 
 GridScores score_grid(const OccupancyGrid& grid, const TrueTraversability& truth,
-                      const std::function<bool(const CellKey&)>& in_scope) {
+                      const std::function<bool(const CellKey&)>& in_scope, const GridReading& reading) {
   GridScores s;
   for (const auto& [key, t] : truth) {
     if (in_scope && !in_scope(key)) continue;
     const auto known = grid.probability_at(key);
     if (!known) continue;
     const double prob = *known;
-    if (prob > kPgmFree && prob < kPgmOccupied) continue;
-    const bool says_blocked = prob >= kPgmOccupied;
+    const CellClass decided = reading.classify(prob);
+    if (decided == CellClass::kUndecided) continue;
+    const bool says_blocked = decided == CellClass::kOccupied;
     ++s.compared;
     s.correct += says_blocked == t.blocked ? 1 : 0;
     if (t.blocked) {

@@ -9,6 +9,7 @@
 #include <unordered_map>
 
 #include "hmap/core/types.hpp"
+#include "hmap/occupancy/grid_reading.hpp"
 #include "hmap/occupancy/occupancy_grid.hpp"
 
 namespace hmap {
@@ -60,8 +61,10 @@ struct GridScores {
 inline constexpr double kPgmOccupied = 0.65;
 inline constexpr double kPgmFree = 0.196;
 
-/// Scores `grid` on the truth cells for which `in_scope(key)` holds (an empty function: all).
+/// Scores `grid` on the truth cells for which `in_scope(key)` holds (an empty function: all),
+/// decided as `reading` reads them (default: map_server's thresholds; at p = 0.65 exactly: occupied).
 [[nodiscard]] GridScores score_grid(const OccupancyGrid& grid, const TrueTraversability& truth,
-                                    const std::function<bool(const CellKey&)>& in_scope = {});
+                                    const std::function<bool(const CellKey&)>& in_scope = {},
+                                    const GridReading& reading = {kPgmOccupied - 1e-12, kPgmFree});
 
 }  // namespace hmap

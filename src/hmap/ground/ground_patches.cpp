@@ -5,6 +5,7 @@
 #include <map>
 #include <optional>
 #include <random>
+#include <span>
 #include <string>
 #include <unordered_set>
 #include <utility>
@@ -402,7 +403,8 @@ class PatchExplorer {
 
   /// Line 8: one height per window cell. Tops within the band of the reference plane are kept
   /// (all of them when a cell holds several); a cell with none takes the IDW (power 2) of its 8
-  /// neighbours' tops in the band, when there are any.
+  /// neighbours' tops in the band, when there are any. Each column of the window and its one-cell
+  /// rim is read at most once (an empty cell's IDW reads up to 8 neighbours, shared by the next).
   HeightPoints get_height_points(const Eigen::Vector2d& center,
                                  const GroundPatch& reference) const {
     HeightPoints out;
@@ -412,15 +414,25 @@ class PatchExplorer {
     const auto first = map_.key_of(center.x() - window_, center.y() - window_);
     const auto last = map_.key_of(center.x() + window_, center.y() + window_);
     if (!first || !last) return out;
-    std::vector<double> tops;
+    // The rim's cells: (i, j) is at (i − first.i + 1) · rim_width + (j − first.j + 1).
+    const std::int32_t rim_width = last->j - first->j + 3;
+    cell_tops_.assign(static_cast<std::size_t>(last->i - first->i + 3) * static_cast<std::size_t>(rim_width), {-1, 0});
+    tops_.clear();
+    const auto tops_of = [&](std::int32_t i, std::int32_t j) {
+      std::pair<int, int>& slot = cell_tops_[static_cast<std::size_t>((i - first->i + 1) * rim_width + (j - first->j + 1))];
+      if (slot.first < 0) {
+        slot.first = static_cast<int>(tops_.size());
+        tops_in_band({i, j}, reference, band, tops_);
+        slot.second = static_cast<int>(tops_.size());
+      }
+      return std::span<const double>(tops_.data() + slot.first, tops_.data() + slot.second);
+    };
     for (std::int32_t i = first->i; i <= last->i; ++i) {
       for (std::int32_t j = first->j; j <= last->j; ++j) {
-        const CellKey key{i, j};
-        const Eigen::Vector2d xy = map_.cell_center(key);
+        const Eigen::Vector2d xy((i + 0.5) * s, (j + 0.5) * s);  // HMap::cell_center
         if ((xy - center).cwiseAbs().maxCoeff() > window_ + 1e-9) continue;
         ++out.window_cells;
-        tops.clear();
-        tops_in_band(key, reference, band, tops);
+        const auto tops = tops_of(i, j);
         for (const double z : tops) points.emplace_back(xy.x(), xy.y(), z);
         if (!tops.empty()) {
           ++out.measured_cells;
@@ -431,10 +443,8 @@ class PatchExplorer {
         for (std::int32_t di = -1; di <= 1; ++di) {
           for (std::int32_t dj = -1; dj <= 1; ++dj) {
             if (di == 0 && dj == 0) continue;
-            tops.clear();
-            tops_in_band({i + di, j + dj}, reference, band, tops);
             const double w = 1.0 / (s * s * (di * di + dj * dj));  // 1 / d^2
-            for (const double z : tops) {
+            for (const double z : tops_of(i + di, j + dj)) {
               weighted += w * z;
               weights += w;
             }
@@ -526,8 +536,8 @@ class PatchExplorer {
                     std::vector<double>& out) const {
     const ColumnView column = map_.column(key);
     if (column.empty()) return;
-    const Eigen::Vector2d xy = map_.cell_center(key);
-    const double z_ref = reference.height_at(xy.x(), xy.y());
+    const double s = map_.cell_size();
+    const double z_ref = reference.height_at((key.i + 0.5) * s, (key.j + 0.5) * s);  // at HMap::cell_center
     for (const HVoxel& v : column.hvoxels()) {
       if (std::abs(v.z_max - z_ref) < band) out.push_back(v.z_max);
     }
@@ -557,6 +567,10 @@ class PatchExplorer {
   Eigen::Vector2d center_sum_ = Eigen::Vector2d::Zero();
   Eigen::Vector2d search_center_ = Eigen::Vector2d::Zero();
   double search_half_extent_ = 0.0;
+  // Scratch of get_height_points: the tops read so far, and per rim cell its [begin, end) in them
+  // (begin −1: not read yet).
+  mutable std::vector<double> tops_;
+  mutable std::vector<std::pair<int, int>> cell_tops_;
 };
 
 }  // namespace

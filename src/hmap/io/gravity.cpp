@@ -123,4 +123,16 @@ FloorEstimate estimate_floor(std::span<const Point3f> points_world, const Eigen:
   return best;
 }
 
+bool orient_floor_below_sensors(FloorEstimate& floor, std::span<const Eigen::Vector3d> sensors_world,
+                                const Eigen::Vector3d& prior_up_world, double min_tilt) {
+  if (!floor.found || sensors_world.empty() || !(prior_up_world.norm() > 0.0)) return false;
+  for (const Eigen::Vector3d& s : sensors_world) {
+    if (floor.up_world.dot(s) - floor.height >= 0.0) return false;  // a sensor above it: a floor
+  }
+  if (floor.up_world.dot(prior_up_world.normalized()) >= std::cos(min_tilt)) return false;  // a ceiling
+  floor.up_world = -floor.up_world;
+  floor.height = -floor.height;
+  return true;
+}
+
 }  // namespace hmap

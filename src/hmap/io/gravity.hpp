@@ -44,4 +44,13 @@ struct FloorEstimate {
 [[nodiscard]] FloorEstimate estimate_floor(std::span<const Point3f> points_world, const Eigen::Vector3d& prior_up_world,
                                            const FloorParams& params = {});
 
+/// A floor is seen from above. When every sensor position lies below the estimated plane and its
+/// normal is more than `min_tilt` [rad] from the prior up, the prior chose the wrong side: the
+/// normal and height are flipped (the PCL grabber frames of a Kinect pitched 42° down at the floor,
+/// read with a scanner's +z as the prior, came out upside down and gave no ground). A plane within
+/// `min_tilt` of the prior with the sensors below it is a ceiling under a sound prior: kept.
+/// Returns whether it flipped.
+bool orient_floor_below_sensors(FloorEstimate& floor, std::span<const Eigen::Vector3d> sensors_world,
+                                const Eigen::Vector3d& prior_up_world, double min_tilt = 0.35);
+
 }  // namespace hmap

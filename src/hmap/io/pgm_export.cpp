@@ -95,7 +95,8 @@ void write_pgm_map(const std::filesystem::path& stem_in, const OccupancyGrid& gr
   std::vector<unsigned char> pixels(static_cast<std::size_t>(width * height), 205);
   grid.for_each_cell([&](const CellKey& k, float l) {
     const double p = probability(l);
-    const unsigned char v = p > params.occupied_thresh ? 0 : p < params.free_thresh ? 254 : 205;
+    const CellClass c = params.reading.classify(p);
+    const unsigned char v = c == CellClass::kOccupied ? 0 : c == CellClass::kFree ? 254 : 205;
     const long row = j_max - k.j;  // first row: the largest y
     const long col = k.i - i_min;
     pixels[static_cast<std::size_t>(row * width + col)] = v;

@@ -5,15 +5,18 @@
 #include <filesystem>
 #include <string>
 
+#include "hmap/occupancy/grid_reading.hpp"
 #include "hmap/occupancy/occupancy_grid.hpp"
 #include "hmap/occupancy/traversability.hpp"
 
 namespace hmap {
 
-/// Thresholds written into the YAML and used to colour the picture (map_server's defaults).
+/// Thresholds written into the YAML (how map_server reads the pixels: 0 occupied, 254 free, 205
+/// unknown, with map_server's defaults) and the reading that decides each cell's pixel.
 struct PgmExportParams {
-  double occupied_thresh = 0.65;  ///< [-] p above it: occupied (black, 0)
-  double free_thresh = 0.196;     ///< [-] p below it: free (white, 254); between: unknown (205)
+  double occupied_thresh = 0.65;  ///< [-] YAML: a pixel's p above it is occupied
+  double free_thresh = 0.196;     ///< [-] YAML: a pixel's p below it is free (254 reads 0.004, 205 0.196)
+  GridReading reading;            ///< which cells are written 0, 254 or 205 (GridReading::for_map for a map's grid)
 };
 
 /// Writes `stem`.pgm (binary P5, the first row the northernmost, one pixel per cell over the

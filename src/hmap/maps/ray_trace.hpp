@@ -1,6 +1,10 @@
 #pragma once
 // Exact 2D grid traversal (Amanatides & Woo): every cell a segment crosses, in order, with the
 // segment parameters t where it enters and leaves the cell. Allocates nothing.
+//
+// Two walks: traverse_2d accumulates the crossing parameters (the classic form, used by Alg. 3);
+// traverse_2d_from computes each from its grid line's index, so it can start anywhere along the
+// segment and still visit exactly the cells, and t values, of the whole walk.
 
 #include <cmath>
 #include <cstdint>
@@ -56,6 +60,84 @@ void traverse_2d(double x0, double y0, double x1, double y1, double cell, Visito
     }
   }
   visit(key, t_in, 1.0);
+}
+
+namespace detail {
+
+/// One axis of traverse_2d_from: crossing(n) is the t at which the segment meets the n-th grid line
+/// after its start cell, a pure function of n (so of the cell), monotone in n, +inf past the end.
+struct WalkAxis {
+  double g0 = 0.0;         // start coordinate [cells]
+  double inv_d = 0.0;      // 1 / (end − start) [1/cells]
+  double first_line = 0.0; // the grid line met first [cells]
+  double step = 1.0;       // +1 or −1
+  long steps = 0;          // grid lines between the start and the end cell
+
+  WalkAxis(double g_start, double g_end, std::int32_t key_start, std::int32_t key_end) : g0(g_start) {
+    const double d = g_end - g_start;
+    steps = std::labs(static_cast<long>(key_end) - key_start);
+    if (steps == 0) return;  // no line to cross (d may still be nonzero inside one cell column)
+    inv_d = 1.0 / d;
+    step = d > 0.0 ? 1.0 : -1.0;
+    first_line = d > 0.0 ? static_cast<double>(key_start) + 1.0 : static_cast<double>(key_start);
+  }
+  [[nodiscard]] double crossing(long n) const {
+    return n < steps ? (first_line + step * static_cast<double>(n) - g0) * inv_d
+                     : std::numeric_limits<double>::infinity();
+  }
+  /// How many crossings come before t: #{n : crossing(n) < t}. An estimate, then exact steps.
+  [[nodiscard]] long count_before(double t) const {
+    if (steps == 0 || !(t > 0.0)) return 0;
+    const double estimate = t * std::abs(1.0 / inv_d) - std::abs(first_line - g0);
+    long n = estimate <= 0.0 ? 0 : estimate >= static_cast<double>(steps) ? steps : static_cast<long>(estimate);
+    while (n > 0 && crossing(n - 1) >= t) --n;
+    while (n < steps && crossing(n) < t) ++n;
+    return n;
+  }
+};
+
+}  // namespace detail
+
+/// The walk of traverse_2d from the first cell whose t_out >= t_start on (t_start <= 0: the whole
+/// walk; t_start > 1: nothing). visit(CellKey key, double t_in, double t_out) as traverse_2d's.
+/// Each crossing's t is computed from its grid line, never accumulated, and the axis whose line
+/// comes first is stepped (at a tie, j, as traverse_2d does): the sequence is a property of the
+/// segment, so starting late gives exactly the tail of the whole walk. It equals traverse_2d's
+/// cells except where rounding breaks a tie at a grid corner the other way.
+template <typename Visitor>
+void traverse_2d_from(double x0, double y0, double x1, double y1, double cell, double t_start, Visitor&& visit) {
+  if (t_start > 1.0) return;
+  const double gx0 = x0 / cell;
+  const double gy0 = y0 / cell;
+  const double gx1 = x1 / cell;
+  const double gy1 = y1 / cell;
+  const CellKey start{static_cast<std::int32_t>(std::floor(gx0)), static_cast<std::int32_t>(std::floor(gy0))};
+  const CellKey end{static_cast<std::int32_t>(std::floor(gx1)), static_cast<std::int32_t>(std::floor(gy1))};
+  const detail::WalkAxis along_i(gx0, gx1, start.i, end.i);
+  const detail::WalkAxis along_j(gy0, gy1, start.j, end.j);
+  // The crossings before t_start are a prefix of the merged order: skip them on both axes.
+  long n_i = along_i.count_before(t_start);
+  long n_j = along_j.count_before(t_start);
+  const int step_i = end.i >= start.i ? 1 : -1;
+  const int step_j = end.j >= start.j ? 1 : -1;
+  CellKey key{start.i + static_cast<std::int32_t>(step_i * n_i), start.j + static_cast<std::int32_t>(step_j * n_j)};
+  double t_in = std::min(std::max(n_i > 0 ? along_i.crossing(n_i - 1) : 0.0, n_j > 0 ? along_j.crossing(n_j - 1) : 0.0), 1.0);
+  double t_i = along_i.crossing(n_i);
+  double t_j = along_j.crossing(n_j);
+  while (n_i < along_i.steps || n_j < along_j.steps) {
+    const bool step_along_i = t_i < t_j;
+    const double t_out = std::min(step_along_i ? t_i : t_j, 1.0);
+    if (!visit(static_cast<const CellKey&>(key), t_in, t_out)) return;
+    t_in = t_out;
+    if (step_along_i) {
+      key.i += step_i;
+      t_i = along_i.crossing(++n_i);
+    } else {
+      key.j += step_j;
+      t_j = along_j.crossing(++n_j);
+    }
+  }
+  visit(static_cast<const CellKey&>(key), t_in, 1.0);
 }
 
 }  // namespace hmap

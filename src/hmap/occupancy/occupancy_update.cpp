@@ -34,14 +34,14 @@ double inverse_sensor_model(HVoxelRole role, double density, double delta, const
 namespace {
 constexpr int kBlockBits = 2;  // ground lookup blocks of 4x4 cells
 constexpr double kCutoffEpsilon = 1e-4;
+constexpr double kMaxBucketRim = 32.0;  // rings of buckets; patches larger than that: the kd-tree
 
-/// Distance before the target beyond which both terms of eq. (4) are within ε of the floor K_g:
+/// Distance before the target beyond which a term of eq. (4) is within ε of the floor K_g:
 /// obstacle: max(ρ, 0.5)·exp(−δ²/2σ²) <= ε ⇐ |δ| >= σ·sqrt(2 ln(1/ε));
 /// ground: (0.5 − K_g) / (1 + exp(|δ|/d_pth)) <= ε ⇐ |δ| >= d_pth·ln((0.5 − K_g)/ε).
-double eq4_cutoff(const OccupancyParams& p) {
-  const double obstacle = p.sigma * std::sqrt(2.0 * std::log(1.0 / kCutoffEpsilon));
-  const double ground = p.ground_distance * std::log(std::max(0.5 - p.ground_gain, kCutoffEpsilon) / kCutoffEpsilon);
-  return std::max(obstacle, ground);
+double obstacle_cutoff(const OccupancyParams& p) { return p.sigma * std::sqrt(2.0 * std::log(1.0 / kCutoffEpsilon)); }
+double ground_cutoff(const OccupancyParams& p) {
+  return p.ground_distance * std::log(std::max(0.5 - p.ground_gain, kCutoffEpsilon) / kCutoffEpsilon);
 }
 
 }  // namespace
@@ -57,6 +57,12 @@ std::pair<double, double> below_along(double h_start, double h_end, double limit
 }
 
 namespace {
+/// Two rays' p for one cell of one scan, as one: a hit outranks a pass (the larger, when either is
+/// at least 0.5: an obstacle's own cell, however thin its density); between passes the clearer
+/// wins (the smaller). Commutative and associative: over a set, its largest p when that is at
+/// least 0.5, else its smallest.
+float combine_in_scan(float a, float b) { return a >= 0.5F || b >= 0.5F ? std::max(a, b) : std::min(a, b); }
+
 struct RayBuffer {
   std::vector<float> p;                 // per window cell: max p of this scan, < 0 untouched
   std::vector<std::uint32_t> touched;   // window cells with p >= 0
@@ -68,14 +74,151 @@ struct RayBuffer {
 struct OccupancyUpdater::Buffers : tbb::enumerable_thread_specific<RayBuffer> {};
 
 OccupancyUpdater::OccupancyUpdater(const Params& params)
-    : params_(params), cutoff_(0.0), buffers_(std::make_unique<Buffers>()) {
+    : params_(params), cutoff_(0.0), obstacle_cutoff_(0.0), buffers_(std::make_unique<Buffers>()) {
   validate(params_);
-  cutoff_ = eq4_cutoff(params_.occupancy);
+  obstacle_cutoff_ = obstacle_cutoff(params_.occupancy);
+  cutoff_ = std::max(obstacle_cutoff_, ground_cutoff(params_.occupancy));
 }
 
 OccupancyUpdater::~OccupancyUpdater() = default;
 OccupancyUpdater::OccupancyUpdater(OccupancyUpdater&&) noexcept = default;
 OccupancyUpdater& OccupancyUpdater::operator=(OccupancyUpdater&&) noexcept = default;
+
+void OccupancyUpdater::index_patches(const ScanWindow& window, const std::vector<GroundPatch>& patches) {
+  const double cell = params_.map.cell_size;
+  const double bucket = cell * (1 << kBlockBits);
+  // The rim: a patch more than rim buckets from a block's centre is beyond ground_reach of every
+  // cell of the block (Chebyshev distance from a cell >= Euclidean from the centre / √2 − 1.5 cells).
+  double max_half = 0.0;
+  for (const GroundPatch& p : patches) max_half = std::max(max_half, p.half_size);
+  const double rim = std::ceil(std::sqrt(2.0) * (params_.occupancy.ground_reach + max_half + 1.5 * cell) / bucket);
+  bucket_rim_ = rim <= kMaxBucketRim ? static_cast<std::int32_t>(rim) : -1;  // huge patches: the kd-tree
+  bucket_rows_ = 0;
+  bucket_cols_ = 0;
+  if (bucket_rim_ < 0) return;
+  // Bucket (a, b) is block (a, b) of the window, extended beyond it; the patches within rim buckets
+  // of the blocks are the only candidates.
+  const double x0 = static_cast<double>(window.center.i - window.half) * cell;
+  const double y0 = static_cast<double>(window.center.j - window.half) * cell;
+  const double lo = -bucket_rim_;
+  const double hi = static_cast<double>((window.width >> kBlockBits) + 1 + bucket_rim_);
+  std::int32_t a_min = std::numeric_limits<std::int32_t>::max(), a_max = std::numeric_limits<std::int32_t>::min();
+  std::int32_t b_min = a_min, b_max = a_max;
+  patch_bucket_.resize(patches.size());
+  for (std::size_t k = 0; k < patches.size(); ++k) {
+    const double fa = std::floor((patches[k].center.x() - x0) / bucket);
+    const double fb = std::floor((patches[k].center.y() - y0) / bucket);
+    patch_bucket_[k] = {std::numeric_limits<std::int32_t>::min(), 0};
+    if (!(fa >= lo && fb >= lo && fa < hi && fb < hi)) continue;  // NaN too
+    patch_bucket_[k] = {static_cast<std::int32_t>(fa), static_cast<std::int32_t>(fb)};
+    a_min = std::min(a_min, patch_bucket_[k].first);
+    a_max = std::max(a_max, patch_bucket_[k].first);
+    b_min = std::min(b_min, patch_bucket_[k].second);
+    b_max = std::max(b_max, patch_bucket_[k].second);
+  }
+  if (a_min > a_max) return;  // no patch near the window
+  // The grid: the patches' bounding box and rim buckets around it. A block outside is farther than
+  // rim buckets from every candidate.
+  bucket_a0_ = a_min - bucket_rim_;
+  bucket_b0_ = b_min - bucket_rim_;
+  bucket_rows_ = a_max - a_min + 1 + 2 * bucket_rim_;
+  bucket_cols_ = b_max - b_min + 1 + 2 * bucket_rim_;
+  const auto rows = static_cast<std::size_t>(bucket_rows_);
+  const auto cols = static_cast<std::size_t>(bucket_cols_);
+  const std::size_t n_buckets = rows * cols;
+  const auto bucket_index = [&](const std::pair<std::int32_t, std::int32_t>& ab) {
+    return static_cast<std::size_t>(ab.first - bucket_a0_) * cols + static_cast<std::size_t>(ab.second - bucket_b0_);
+  };
+  // Counting sort of the candidates by bucket, in index order within a bucket.
+  bucket_begin_.assign(n_buckets + 1, 0);
+  for (std::size_t k = 0; k < patches.size(); ++k) {
+    if (patch_bucket_[k].first != std::numeric_limits<std::int32_t>::min()) ++bucket_begin_[bucket_index(patch_bucket_[k]) + 1];
+  }
+  for (std::size_t b = 0; b < n_buckets; ++b) bucket_begin_[b + 1] += bucket_begin_[b];
+  bucket_patches_.resize(bucket_begin_[n_buckets]);
+  bucket_fill_.assign(bucket_begin_.begin(), bucket_begin_.end() - 1);
+  for (std::size_t k = 0; k < patches.size(); ++k) {
+    if (patch_bucket_[k].first != std::numeric_limits<std::int32_t>::min()) {
+      bucket_patches_[bucket_fill_[bucket_index(patch_bucket_[k])]++] = static_cast<std::int32_t>(k);
+    }
+  }
+  // Per bucket, the Chebyshev distance (in buckets, at most rim + 1) to the nearest bucket holding a
+  // patch, in two passes: the search skips the empty rings, and a block far from every patch costs
+  // one read.
+  const auto cap = static_cast<std::uint16_t>(bucket_rim_ + 1);
+  empty_rings_.resize(n_buckets);
+  for (std::size_t b = 0; b < n_buckets; ++b) empty_rings_[b] = bucket_begin_[b + 1] > bucket_begin_[b] ? 0 : cap;
+  const auto relax = [&](std::size_t b, std::size_t from) {
+    empty_rings_[b] = std::min<std::uint16_t>(empty_rings_[b], static_cast<std::uint16_t>(empty_rings_[from] + 1));
+  };
+  for (std::size_t i = 0; i < rows; ++i) {
+    for (std::size_t j = 0; j < cols; ++j) {
+      const std::size_t b = i * cols + j;
+      if (j > 0) relax(b, b - 1);
+      if (i > 0) {
+        relax(b, b - cols);
+        if (j > 0) relax(b, b - cols - 1);
+        if (j + 1 < cols) relax(b, b - cols + 1);
+      }
+    }
+  }
+  for (std::size_t i = rows; i-- > 0;) {
+    for (std::size_t j = cols; j-- > 0;) {
+      const std::size_t b = i * cols + j;
+      if (j + 1 < cols) relax(b, b + 1);
+      if (i + 1 < rows) {
+        relax(b, b + cols);
+        if (j + 1 < cols) relax(b, b + cols + 1);
+        if (j > 0) relax(b, b + cols - 1);
+      }
+    }
+  }
+}
+
+std::int32_t OccupancyUpdater::nearest_patch(std::int32_t bi, std::int32_t bj, double x, double y,
+                                             const std::vector<GroundPatch>& patches) const {
+  // (x, y) is the centre of bucket (bi, bj). Every patch in ring r + 1 or beyond lies at least
+  // (r + 0.5) buckets away, every patch off the grid more than rim buckets away: the search stops
+  // as soon as the best is that near. Within rim buckets it is exact; beyond, no cell of the block
+  // is within ground_reach of any patch (index_patches), so none is as good.
+  const std::int32_t ci = bi - bucket_a0_;
+  const std::int32_t cj = bj - bucket_b0_;
+  if (ci < 0 || cj < 0 || ci >= bucket_rows_ || cj >= bucket_cols_) return -1;
+  const auto cols = static_cast<std::size_t>(bucket_cols_);
+  const std::int32_t first_ring = empty_rings_[static_cast<std::size_t>(ci) * cols + static_cast<std::size_t>(cj)];
+  if (first_ring > bucket_rim_) return -1;
+  const double bucket = params_.map.cell_size * (1 << kBlockBits);
+  std::int32_t best = -1;
+  double best_d2 = std::numeric_limits<double>::infinity();
+  const auto visit = [&](std::int32_t i, std::int32_t j) {
+    if (i < 0 || j < 0 || i >= bucket_rows_ || j >= bucket_cols_) return;
+    const std::size_t b = static_cast<std::size_t>(i) * cols + static_cast<std::size_t>(j);
+    for (std::uint32_t k = bucket_begin_[b]; k < bucket_begin_[b + 1]; ++k) {
+      const std::int32_t p = bucket_patches_[k];
+      const double dx = patches[static_cast<std::size_t>(p)].center.x() - x;
+      const double dy = patches[static_cast<std::size_t>(p)].center.y() - y;
+      const double d2 = dx * dx + dy * dy;
+      if (d2 < best_d2 || (d2 == best_d2 && p < best)) {
+        best_d2 = d2;
+        best = p;
+      }
+    }
+  };
+  for (std::int32_t r = first_ring; r <= bucket_rim_; ++r) {
+    for (std::int32_t di = -r; di <= r; ++di) {
+      if (di == -r || di == r) {
+        for (std::int32_t dj = -r; dj <= r; ++dj) visit(ci + di, cj + dj);
+      } else {
+        visit(ci + di, cj - r);
+        visit(ci + di, cj + r);
+      }
+    }
+    const double reach = (r + 0.5) * bucket;
+    if (best_d2 <= reach * reach) return best;
+  }
+  const double exact = bucket_rim_ * bucket;
+  return best_d2 <= exact * exact ? best : -1;
+}
 
 void OccupancyUpdater::find_ground(const ScanHVoxels& scan, const ScanWindow& window, const GroundModel& ground,
                                    OccupancyUpdateStats& stats) {
@@ -94,6 +237,7 @@ void OccupancyUpdater::find_ground(const ScanHVoxels& scan, const ScanWindow& wi
   }
   const std::size_t blocks_per_side = (static_cast<std::size_t>(window.width) >> kBlockBits) + 1;
   const auto& patches = ground.patches();
+  index_patches(window, patches);
   ground_z_.resize(scan.cells.size());
   for (std::size_t c = 0; c < scan.cells.size(); ++c) {
     const CellKey& key = scan.cells[c].key;
@@ -109,7 +253,9 @@ void OccupancyUpdater::find_ground(const ScanHVoxels& scan, const ScanWindow& wi
       const double half_block = 0.5 * cell * (1 << kBlockBits);
       const double xb = (static_cast<double>(bi << kBlockBits) - window.half + window.center.i) * cell + half_block;
       const double yb = (static_cast<double>(bj << kBlockBits) - window.half + window.center.j) * cell + half_block;
-      block_patch_[b] = ground.nearest_index(xb, yb);
+      block_patch_[b] = bucket_rim_ >= 0
+                            ? nearest_patch(static_cast<std::int32_t>(bi), static_cast<std::int32_t>(bj), xb, yb, patches)
+                            : ground.nearest_index(xb, yb);
     }
     const std::int32_t patch_index = block_patch_[b];
     if (patch_index < 0) {
@@ -164,18 +310,23 @@ OccupancyUpdateStats OccupancyUpdater::update(const ScanHVoxels& scan, const Gro
       const ScanCell& target = scan.cells[c];
       buffer.judged.clear();
       double z_low = std::numeric_limits<double>::infinity();
+      bool any_ground = false;
       for (const HVoxel& v : scan.hvoxels_of(target)) {
         const HVoxelRole role = hvoxel_role(v, ground_z_[c], op);
         if (role == HVoxelRole::kIgnored) continue;
         buffer.judged.emplace_back(role, v.density);
         z_low = std::min(z_low, static_cast<double>(v.z_min));
+        any_ground = any_ground || role == HVoxelRole::kGround;
       }
       if (buffer.judged.empty()) continue;  // only ceilings, crowns or pits here: no evidence
       ++buffer.rays;
       const double xt = (target.key.i + 0.5) * cell;
       const double yt = (target.key.j + 0.5) * cell;
-      const double length = std::hypot(xt - xs, yt - ys);
-      const double t_cutoff = length > 0.0 ? 1.0 - cutoff_ / length : 0.0;
+      const double length = std::sqrt((xt - xs) * (xt - xs) + (yt - ys) * (yt - ys));
+      // The obstacle term fades within a few σ, the ground term within a few d_pth: a ray to
+      // obstacles alone evaluates eq. (4) over a much shorter stretch.
+      const double cutoff = any_ground ? cutoff_ : obstacle_cutoff_;
+      const double t_cutoff = length > 0.0 ? 1.0 - cutoff / length : 0.0;
       // Where the lowest ray to this cell (to its lowest judged HVoxel) runs at most
       // free_ray_height above the ground, with the ground taken linear from under the sensor to
       // here: only there is a pass evidence that nothing blocking stands in the cell. Higher, an
@@ -187,11 +338,10 @@ OccupancyUpdateStats OccupancyUpdater::update(const ScanHVoxels& scan, const Gro
       const std::pair<double, double> free_span = below_along(h_start, h_end, op.free_ray_height);
       const double t_free_lo = free_span.first;
       const double t_free_hi = free_span.second;
-      // Nothing before min(t_free_lo, t_cutoff) is touched. The walk still starts at the sensor:
-      // started halfway, it would cross a grid corner on the other side now and then.
+      // Nothing before min(t_free_lo, t_cutoff) is touched: the walk starts at the first cell
+      // leaving after it, exactly the cells (and t values) the whole walk has from there on.
       const double t_start = std::min(t_free_lo, t_cutoff);
-      traverse_2d(xs, ys, xt, yt, cell, [&](const CellKey& key, double t_in, double t_out) {
-        if (t_out < t_start) return true;
+      traverse_2d_from(xs, ys, xt, yt, cell, t_start, [&](const CellKey& key, double t_in, double t_out) {
         const bool low = t_out >= t_free_lo && t_in <= t_free_hi;
         float p = floor_p;
         if (t_out >= t_cutoff) {
@@ -208,14 +358,20 @@ OccupancyUpdateStats OccupancyUpdater::update(const ScanHVoxels& scan, const Gro
         }
         const std::size_t index = window.index(key);
         float& slot = buffer.p[index];
-        if (slot < 0.0F) buffer.touched.push_back(static_cast<std::uint32_t>(index));
-        slot = std::max(slot, p);
+        if (slot < 0.0F) {
+          buffer.touched.push_back(static_cast<std::uint32_t>(index));
+          slot = p;
+        } else {
+          slot = combine_in_scan(slot, p);
+        }
         return true;
       });
     }
   });
 
   // eq. (3) once per cell with the largest p any thread saw; the buffers are left untouched (< 0).
+  // Most cells take the floor K_g: its log-odds are computed once.
+  const float floor_log_odds = log_odds(floor_p);
   for (RayBuffer& buffer : *buffers_) {
     stats.rays += buffer.rays;
     buffer.rays = 0;
@@ -224,11 +380,11 @@ OccupancyUpdateStats OccupancyUpdater::update(const ScanHVoxels& scan, const Gro
       if (p < 0.0F) continue;  // merged already from an earlier buffer
       for (RayBuffer& other : *buffers_) {
         if (other.p.size() > index) {
-          p = std::max(p, other.p[index]);
+          if (other.p[index] >= 0.0F) p = combine_in_scan(p, other.p[index]);
           other.p[index] = -1.0F;
         }
       }
-      grid.update(window.key_of(index), log_odds(p));
+      grid.update(window.key_of(index), p == floor_p ? floor_log_odds : log_odds(p));
       ++stats.cells;
     }
     buffer.touched.clear();

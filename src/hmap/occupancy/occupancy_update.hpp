@@ -43,8 +43,9 @@ struct OccupancyUpdateStats {
 /// Updates the 2D grid with one scan after another, reusing its buffers (nothing is allocated per
 /// scan once warm). Each cell on the path from the sensor's cell to a scan cell (both included)
 /// takes p(c|z) = max over that cell's HVoxels of eq. (4); a cell reached by several rays keeps
-/// the largest p of the scan (a hit outranks a pass-through), and is then updated once by
-/// eq. (3). p is floored at K_g: in front of an obstacle the obstacle term tends to 0, which would
+/// the largest p of the scan when one is a hit (p >= 0.5: a hit outranks a pass-through), else
+/// the smallest (the clearest pass: a ground cell's own ray gives 0.4 at δ = 0, a ray passing low
+/// over it K_g), and is then updated once by eq. (3). p is floored at K_g: in front of an obstacle the obstacle term tends to 0, which would
 /// otherwise be certainty of free space from a single scan.
 ///
 /// Unlike the paper's 2D ray, a pass frees a cell only where the lowest 3D ray to the scan cell
@@ -56,7 +57,8 @@ struct OccupancyUpdateStats {
 /// Two shortcuts, both exact to 1e-4 in probability: farther than `cutoff()` before its HVoxel's
 /// cell a ray's p is the floor K_g, so eq. (4) is only evaluated near the end of each ray; and the
 /// local ground of a cell is the plane of the patch nearest to the centre of its 4x4-cell block,
-/// looked up once per block and scan.
+/// looked up once per block and scan (in buckets of the patches near the window, rebuilt per scan).
+/// Each ray's walk starts at the first cell it can change (traverse_2d_from).
 class OccupancyUpdater {
  public:
   /// Throws hmap::Error for invalid parameters.
@@ -75,15 +77,35 @@ class OccupancyUpdater {
   struct Buffers;  // one RayBuffer per thread (TBB, kept out of this header)
   void find_ground(const ScanHVoxels& scan, const ScanWindow& window, const GroundModel& ground,
                    OccupancyUpdateStats& stats);
+  /// Buckets of one block each over the window and a rim, holding the patches whose centre is there.
+  void index_patches(const ScanWindow& window, const std::vector<GroundPatch>& patches);
+  /// The patch nearest to (x, y), the centre of block (bi, bj), from the buckets (ties: the lowest
+  /// index); −1 when none lies within the rim, where no patch is within ground_reach of the block.
+  [[nodiscard]] std::int32_t nearest_patch(std::int32_t bi, std::int32_t bj, double x, double y,
+                                           const std::vector<GroundPatch>& patches) const;
 
   Params params_;
-  double cutoff_;
+  double cutoff_;           // the larger of the two terms' cutoffs
+  double obstacle_cutoff_;  // the obstacle term's alone
   std::unique_ptr<Buffers> buffers_;
   std::vector<double> ground_z_;            // per scan cell: local ground height, NaN none
   std::vector<std::int32_t> block_patch_;   // per 4x4 block: nearest patch, -1 none
   std::vector<std::uint32_t> block_stamp_;  // scan number the entry was computed for
   std::uint32_t stamp_ = 0;
   std::int32_t window_width_ = -1;          // the blocks above are laid out for this width
+  // The ground patches near the window in buckets of one block (counting sort, rebuilt per scan):
+  // the nearest patch of a block in a few bucket reads instead of a query of the kd-tree's forest.
+  // Bucket (a, b) is the window's block (a, b); the grid holds rows × cols buckets from (a0, b0).
+  std::int32_t bucket_rim_ = 0;             // rings searched at most; −1: the kd-tree answers
+  std::int32_t bucket_a0_ = 0;
+  std::int32_t bucket_b0_ = 0;
+  std::int32_t bucket_rows_ = 0;
+  std::int32_t bucket_cols_ = 0;
+  std::vector<std::uint32_t> bucket_begin_;  // per bucket: first entry in bucket_patches_, + end
+  std::vector<std::uint32_t> bucket_fill_;
+  std::vector<std::int32_t> bucket_patches_;
+  std::vector<std::pair<std::int32_t, std::int32_t>> patch_bucket_;  // per patch: its bucket, INT_MIN: none
+  std::vector<std::uint16_t> empty_rings_;   // per bucket: rings to the nearest patch's bucket
 };
 
 /// One scan with a fresh OccupancyUpdater (allocates its buffers: prefer the class scan after scan).
