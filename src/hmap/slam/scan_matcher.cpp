@@ -84,6 +84,27 @@ void ScanMatcher::select(const ScanHVoxels& scan_level, float min_match) {
   rms_radius_ = candidates_.empty() ? 1.0 : std::max(s, std::sqrt(radius_sq / static_cast<double>(candidates_.size())));
 }
 
+void ScanMatcher::keep_inside_map(const HMap& map, const PlanarPose& guess) {
+  const double s = params_.map.cell_size;
+  const double c = std::cos(guess.yaw);
+  const double sn = std::sin(guess.yaw);
+  std::size_t kept = 0;
+  double radius_sq = 0.0;
+  for (const Candidate& cand : candidates_) {
+    const double x = guess.x + c * cand.v.x() - sn * cand.v.y();
+    const double y = guess.y + sn * cand.v.x() + c * cand.v.y();
+    bool inside = true;
+    for (int di = -1; di <= 1 && inside; ++di) {
+      for (int dj = -1; dj <= 1 && inside; ++dj) inside = map.column(x + di * s, y + dj * s).size() > 0;
+    }
+    if (!inside) continue;
+    candidates_[kept++] = cand;
+    radius_sq += static_cast<double>(cand.v.squaredNorm());
+  }
+  candidates_.resize(kept);
+  rms_radius_ = kept == 0 ? 1.0 : std::max(s, std::sqrt(radius_sq / static_cast<double>(kept)));
+}
+
 ScanMatcher::Linearization ScanMatcher::linearize(const PlanarPose& pose, std::size_t stride) {
   Linearization lin;
   const auto s = static_cast<float>(params_.map.cell_size);
@@ -334,7 +355,15 @@ MatchResult ScanMatcher::match(const ScanHVoxels& scan_level, const HMap& map, c
                                CoarseSearch search, const std::optional<PlanarPose>& alternative,
                                bool thin_fallback) {
   select(scan_level, static_cast<float>(params_.slam.min_match_height));
-  if (candidates_.size() < kMinHVoxels && thin_fallback && params_.slam.min_match_height > 0.0) select(scan_level, 0.0F);
+  if (candidates_.size() < kMinHVoxels && thin_fallback && params_.slam.min_match_height > 0.0) {
+    select(scan_level, 0.0F);
+    // Only where the map is known all around (at the guess): flat ground is the same everywhere, so
+    // its HVoxels tell the pose only by the edge of what the map has seen, and that edge pulled the
+    // scan back onto it (the parking side road's empty end: 6 m behind, 9° of yaw in the U-turn).
+    // Inside, ground rings match anywhere (no gradient: the guess stands) and kerbs and steps match
+    // where they are.
+    keep_inside_map(map, guess);
+  }
   if (candidates_.size() < kMinHVoxels) {
     // Too few to hold three degrees of freedom: a kerb or a pedestrian alone snaps the pose by
     // degrees. The guess (odometry or constant velocity) is kept.

@@ -74,7 +74,10 @@ class ScanMatcher {
   /// `thin_fallback`: with fewer than kMinHVoxels at least slam.min_match_height tall, match with
   /// all of them (floors and kerbs included) instead of keeping the guess. For a guess that is only
   /// constant velocity: blind, it drove straight through a U-turn at the empty end of the parking's
-  /// side road; with odometry keeping the guess is better (docs/SLAM.md).
+  /// side road; with odometry keeping the guess is better (docs/SLAM.md). Only the thin HVoxels
+  /// whose cell and its eight neighbours are in the map (at the guess) take part: on bare ground the
+  /// edge of what the map has seen was the only "feature" and held the pose back.
+  /// With a sparse ring pattern few are left, and the match is then skipped.
   /// `alternative` (the last pose, when the guess extrapolates a motion): a second centre of the
   /// coarse search. A handheld sensor's turn rate changes sign from one scan to the next, so
   /// constant velocity can be farther off than no motion at all.
@@ -93,6 +96,8 @@ class ScanMatcher {
     CellKey base{INT32_MIN, INT32_MIN};  // cached: the cell (i0, j0) the F values belong to
     std::array<float, 4> F{};
   };
+  /// Drops the candidates whose cell and its eight neighbours (at `guess`) are not all in the map.
+  void keep_inside_map(const HMap& map, const PlanarPose& guess);
   struct Linearization {
     Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
     Eigen::Vector3d g = Eigen::Vector3d::Zero();
