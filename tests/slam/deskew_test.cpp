@@ -160,6 +160,57 @@ TEST(Deskew, FastTurningDriveIsTrackedBetterWithPerPointTime) {
   EXPECT_LT(with.max_yaw, 0.5 * without.max_yaw);
 }
 
+/// The same street at 4 m/s turning 30°/s (0.4 m and 3° within each sweep) with no odometry: the
+/// guess is constant velocity, and the sweep's velocity comes from the last two estimates.
+DriveError drive_without_odometry(bool with_times) {
+  const sim::Scene scene = street();
+  Params p = outdoor_preset();
+  p.map.cell_size = 0.1;
+  p.map.max_range = 25.0;
+  p.slam.min_layer_height = 0.1;
+  HmapSlam slam(p);
+  sim::SpinningLidarParams lp = sim::SpinningLidarParams::hdl64e();
+  lp.seed = 7;
+  sim::SpinningLidar lidar(lp);
+  const auto slow = [](double t) {
+    const double w = 30 * kDeg;
+    const double v = 4.0;
+    return compose(PlanarPose{v * std::sin(w * t) / w, v * (1.0 - std::cos(w * t)) / w, w * t}, Attitude{1.8, 0, 0});
+  };
+  DriveError e;
+  double sum = 0.0;
+  const int n = 12;
+  for (int k = 0; k < n; ++k) {
+    const double t = 0.1 * k;
+    const sim::SimulatedScan s = lidar.sweep(scene, slow, t);
+    ScanInput in;
+    in.points_sensor = s.points_sensor;
+    if (with_times) in.times = s.time;
+    in.stamp = t;
+    in.attitude = attitude_of(slow(t));
+    const SlamStep step = slam.process(in);
+    EXPECT_EQ(step.deskewed, with_times && k >= 2) << k;  // a velocity needs two estimates
+    const double d = (step.T_map_sensor.translation() - slow(t).translation()).norm();
+    sum += d * d;
+    e.max_yaw = std::max(e.max_yaw, std::abs(planar_of(step.T_map_sensor).yaw - planar_of(slow(t)).yaw));
+  }
+  e.rms_m = std::sqrt(sum / n);
+  return e;
+}
+
+TEST(Deskew, WithoutOdometryTheEstimatesGiveTheVelocity) {
+  // No odometry: the sweep's velocity is that of the last two estimates, known from the third scan
+  // on; the first two are then deskewed with it and the map built again from them. Measured: ATE
+  // rms 0.027 m and 0.14° with the per-point time, 0.038 m and 0.32° without; when the first two
+  // stayed skewed in the map (only the first was rebuilt, and only with odometry), 0.57 m and 5°.
+  const DriveError with = drive_without_odometry(true);
+  const DriveError without = drive_without_odometry(false);
+  std::printf("4 m/s, 30°/s, no odometry: with deskewing ATE rms %.3f m, max yaw error %.2f°; without %.3f m, %.2f°\n",
+              with.rms_m, with.max_yaw / kDeg, without.rms_m, without.max_yaw / kDeg);
+  EXPECT_LT(with.rms_m, without.rms_m);
+  EXPECT_LT(with.max_yaw, without.max_yaw);
+}
+
 TEST(Deskew, ScansWithoutTimeAreUnchangedBitForBit) {
   // The same scans through process(points, attitude) and through ScanInput with a stamp but no
   // times: the same poses, exactly.

@@ -104,24 +104,21 @@ SlamStep HmapSlam::process(const ScanInput& input) {
       points_sensor = deskewed_;
       step.deskewed = true;
       step.sweep_velocity = velocity;
-      if (scans_ == 1 && !first_points_.empty()) {
-        // The first scan had no velocity to be deskewed with and the map is that scan alone: it is
-        // built again from the first scan deskewed with this velocity (else every later, deskewed
-        // scan is matched against a skewed map: 0.3 m off at 10 m/s).
-        PointCloud first;
-        deskew(first_points_, first_times_, velocity, first);
+      if (!skewed_.empty() && skewed_.size() == scans_) {
+        // The scans so far had no velocity to be deskewed with (the first; without odometry the
+        // second as well) and the map is those scans alone: it is built again from them deskewed
+        // with this velocity. Else every later, deskewed scan is matched against a skewed map:
+        // 0.3 m off at 10 m/s with odometry; without it, 4 m/s, 0.57 m against 0.04 m undeskewed.
+        PointCloud fixed;
         mapper_ = Mapper(params_);
-        (void)mapper_.integrate(first, T_last_);
+        for (const SkewedScan& old : skewed_) {
+          deskew(old.points, old.times, velocity, fixed);
+          (void)mapper_.integrate(fixed, old.T_map_sensor);
+        }
       }
+      skewed_.clear();
     }
     last_sweep_ = sweep;
-    if (scans_ == 0 && !step.deskewed) {
-      first_points_.assign(input.points_sensor.begin(), input.points_sensor.end());
-      first_times_.assign(input.times.begin(), input.times.end());
-    } else {
-      first_points_.clear();
-      first_times_.clear();
-    }
   }
   step.guess = guess.value_or(predict());
   if (!guess && imu && imu->has_rotation && scans_ > 0) {
@@ -258,6 +255,11 @@ SlamStep HmapSlam::process(const ScanInput& input) {
   // The floor normal in the map as this scan sees it, for the next scan's tilt prediction.
   if (floor_sensor) floor_up_ = (step.T_map_sensor.linear() * *floor_sensor).normalized();
   step.mapping = mapper_.integrate(points_sensor, step.T_map_sensor);
+  if (!input.times.empty() && params_.slam.deskew == 1 && !step.deskewed && skewed_.size() == scans_ &&
+      skewed_.size() < kMaxSkewedScans) {
+    skewed_.push_back({PointCloud(input.points_sensor.begin(), input.points_sensor.end()),
+                       std::vector<float>(input.times.begin(), input.times.end()), step.T_map_sensor});
+  }
   previous_ = scans_ > 0 ? last_ : estimate;
   last_ = estimate;
   T_previous_ = scans_ > 0 ? T_last_ : step.T_map_sensor;

@@ -120,8 +120,15 @@ class HmapSlam {
   std::optional<double> stamp_previous_;
   double last_sweep_ = 0.0;             // [s] time span of the last scan's points
   PointCloud deskewed_;
-  PointCloud first_points_;          // the first scan, kept until the second gives it a velocity
-  std::vector<float> first_times_;
+  // The first scans, integrated without a velocity to deskew them with, kept (at most
+  // kMaxSkewedScans, and only while every scan so far is one) until a velocity is known.
+  struct SkewedScan {
+    PointCloud points;
+    std::vector<float> times;
+    Pose T_map_sensor;
+  };
+  static constexpr std::size_t kMaxSkewedScans = 2;
+  std::vector<SkewedScan> skewed_;
   std::size_t scans_ = 0;
 };
 
