@@ -8,9 +8,11 @@
 #include <Eigen/Geometry>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <numbers>
 
 #include "hmap/core/error.hpp"
+#include "hmap/io/imu_text.hpp"
 #include "hmap/sim/composites.hpp"
 #include "hmap/sim/imu_sim.hpp"
 #include "hmap/sim/scene.hpp"
@@ -65,6 +67,34 @@ TEST(Imu, FilterFollowsGravityAndTheGyro) {
       EXPECT_LT(Eigen::AngleAxisd(R_true.transpose() * prior.R_previous_current).angle(), 0.1 * kDeg) << k;
     }
     last = T;
+  }
+}
+
+// An IMU that gives its own orientation (a bag's Imu with orientation, or the text file's
+// qx qy qz qw) is taken as it is: written to a text file and read back, the samples carry the
+// sensor's true orientation but an accelerometer that reads 3 g straight down (outside the gate,
+// and wrong): the up direction at every scan is the true one within 0.05°, from the first scan on.
+TEST(Imu, OrientationReadFromAFileIsTaken) {
+  Params p;
+  sim::ImuSimParams ip;
+  ip.seed = 11;
+  ImuSamples samples = sim::simulate_imu(wobbling, -0.5, 2.0, ip);
+  ASSERT_GT(samples.size(), 100U);
+  for (ImuSample& s : samples) {
+    s.orientation = Eigen::Quaterniond(wobbling(s.t).linear());
+    s.accel = Eigen::Vector3d(0.0, 0.0, -3.0 * 9.81);
+  }
+  const auto path = std::filesystem::temp_directory_path() / "hmap_imu_orientation_test.txt";
+  write_imu_text(path, samples);
+  const ImuSamples read = read_imu_text(path);
+  std::filesystem::remove(path);
+  ASSERT_EQ(read.size(), samples.size());
+  ImuAttitudeFilter filter(read, p);
+  for (int k = 0; k <= 20; ++k) {
+    const double t = 0.1 * k;
+    const ImuPrior prior = filter.prior_at(t);
+    const Eigen::Vector3d up_true = wobbling(t).linear().transpose() * Eigen::Vector3d::UnitZ();
+    EXPECT_LT(std::acos(std::min(1.0, up_true.dot(prior.up_sensor))), 0.05 * kDeg) << k;
   }
 }
 
