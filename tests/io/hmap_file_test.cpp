@@ -578,6 +578,14 @@ TEST_F(HMapFileTest, FileWrittenBeforeTopNoiseLoadsWithItsDefault) {
   EXPECT_EQ(load_hmap(path).params().slam.deskew, SlamParams{}.deskew);
   EXPECT_DOUBLE_EQ(load_hmap(path).params().slam.imu_tilt_weight, SlamParams{}.imu_tilt_weight);
   EXPECT_DOUBLE_EQ(load_hmap(path).params().slam.level_max_slope, SlamParams{}.level_max_slope);
+  // And the odometry prior's (session 8).
+  for (const char* name : {"slam.odometry_sigma_translation", "slam.odometry_sigma_rotation", "slam.odometry_noise"}) {
+    j.erase(name);
+  }
+  p.json = j.dump();
+  std::ofstream(path, std::ios::binary | std::ios::trunc) << assemble(p);
+  EXPECT_DOUBLE_EQ(load_hmap(path).params().slam.odometry_noise, SlamParams{}.odometry_noise);
+  EXPECT_DOUBLE_EQ(load_hmap(path).params().slam.odometry_sigma_translation, SlamParams{}.odometry_sigma_translation);
   j.erase("slam.coarse_rotation");
   p.json = j.dump();
   std::ofstream(path, std::ios::binary | std::ios::trunc) << assemble(p);
@@ -663,7 +671,7 @@ TEST_F(HMapFileTest, EnormousClaimsAreRejected) {
   EXPECT_TRUE(rejected(path, assemble(parts_with_payload(payload_cells)), "remain"));
 }
 
-#if !defined(__SANITIZE_ADDRESS__)
+#if !HMAP_UNDER_ASAN
 /// In a death-test child: exits 0 if loading `path` with the address space capped at 512 MiB
 /// above the current use throws InputError, 1 for another exception (bad_alloc), 2 if it loads.
 [[noreturn]] void load_with_capped_memory(const std::filesystem::path& path) {
@@ -688,7 +696,7 @@ TEST_F(HMapFileTest, EnormousClaimsAreRejected) {
 // A file claiming just under 32 GiB of payload and 2^25 tiles is loaded with the address space
 // capped at 512 MiB above the current use: allocating for the claim would fail with bad_alloc.
 TEST_F(HMapFileTest, ClaimsAreNotAllocated) {
-#if defined(__SANITIZE_ADDRESS__)
+#if HMAP_UNDER_ASAN
   GTEST_SKIP() << "AddressSanitizer reserves terabytes of address space: no RLIMIT_AS under it";
 #else
   std::string payload = payload_of(kValidTiles);

@@ -13,7 +13,9 @@
 #include <Eigen/QR>
 // nanoflann's dynamic index trips GCC 12's -Wmaybe-uninitialized inside the header (root_bbox is
 // filled before use); silence that one warning for this file only.
+#if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
 #include <nanoflann.hpp>
 
 #include "hmap/core/checked.hpp"

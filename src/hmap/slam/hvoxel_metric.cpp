@@ -76,8 +76,7 @@ std::span<const HVoxel> LocalMapView::column(const CellKey& key) const {
 LayerInterpolator::LayerInterpolator(const Params& params)
     : half_window_(params.slam.interpolation_window / 2),
       min_height_(static_cast<float>(params.slam.min_layer_height)),
-      idw_weight_(static_cast<float>(params.slam.idw_weight)),
-      cell_(static_cast<float>(params.map.cell_size)) {
+      idw_weight_(static_cast<float>(params.slam.idw_weight)) {
   const int w = 2 * half_window_ + 1;
   idw_weight_of_offset_.assign(static_cast<std::size_t>(w * w), 0.0F);
   for (int di = -half_window_; di <= half_window_; ++di) {

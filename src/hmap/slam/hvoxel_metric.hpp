@@ -79,7 +79,6 @@ class LayerInterpolator {
   int half_window_;
   float min_height_;
   float idw_weight_;
-  float cell_;
   std::vector<float> idw_weight_of_offset_;  // 1/d^p by (di, dj) offset in the window, 0 at the centre
 };
 
