@@ -280,5 +280,83 @@ TEST(ScanMatcher, ThinFallbackOnBareGroundKeepsTheGuess) {
   EXPECT_LT(yaw_error(r.pose.yaw, truth.yaw), 0.2 * kDeg);
 }
 
+/// Vertical posts 2 m tall, 21 points each (every 0.1 m), at the given (x, y) around a sensor 1.8 m
+/// above the ground, in its gravity-aligned frame: one tall HVoxel per post.
+PointCloud posts_at(const std::vector<Eigen::Vector2d>& xy) {
+  PointCloud points;
+  for (const Eigen::Vector2d& q : xy) {
+    for (int z = 0; z <= 20; ++z) {
+      points.emplace_back(static_cast<float>(q.x()), static_cast<float>(q.y()), static_cast<float>(-kSensorHeight + 0.1 * z));
+    }
+  }
+  return points;
+}
+
+TEST(ScanMatcher, OdometryPriorHoldsWhatOneMovedPostWouldPull) {
+  // A corridor of two walls along x (nothing in them fixes x) and one post, which moved 0.5 m along
+  // +x between the map and the scan (a parked car that left). The sensor stood still. Without a
+  // prior the post is all that fixes x, and the coarse search aligns it: the pose jumps 0.5 m.
+  // With the odometry's prior (σ 2 cm, the default at rest) one HVoxel cannot pay for a 25σ jump:
+  // the prior's cost there is s²·(0.5/0.02)² ≥ 0.01·625 = 6.25 (s² at least 0.01), the post's whole
+  // residual at most 1.
+  Params p = outdoor_preset();  // 0.25 m cells
+  std::vector<Eigen::Vector2d> map_xy;
+  std::vector<Eigen::Vector2d> scan_xy;
+  for (int i = -60; i < 60; ++i) {  // the map's walls reach 5 m farther each way than the scan's
+    const double x = (i + 0.5) * 0.25;
+    for (const double y : {2.125, -2.125}) {
+      map_xy.emplace_back(x, y);
+      if (i >= -40 && i < 40) scan_xy.emplace_back(x, y);
+    }
+  }
+  map_xy.emplace_back(3.125, 0.875);
+  scan_xy.emplace_back(3.625, 0.875);
+  Mapper mapper(p);
+  (void)mapper.integrate(posts_at(map_xy), sensor_pose({}));
+  ScanHVoxels scan_level;
+  ScanHVoxelizer(p.map).build(posts_at(scan_xy), compose(PlanarPose{}, Attitude{kSensorHeight, 0.0, 0.0}), scan_level);
+  ASSERT_EQ(scan_level.hvoxels.size(), scan_xy.size());
+
+  ScanMatcher free_matcher(p);
+  const MatchResult pulled = free_matcher.match(scan_level, mapper.map(), PlanarPose{}, CoarseSearch::kAlways);
+  EXPECT_NEAR(pulled.pose.x, -0.5, 0.1);  // the post aligned: the test's premise
+  EXPECT_DOUBLE_EQ(pulled.prior_cost, 0.0);
+
+  ScanMatcher matcher(p);
+  const MotionPrior still = MotionPrior::from_sigmas(PlanarPose{}, 0.02, 0.005);
+  const MatchResult held = matcher.match(scan_level, mapper.map(), PlanarPose{}, CoarseSearch::kAlways, std::nullopt,
+                                         false, still);
+  EXPECT_TRUE(held.coarse_search);
+  EXPECT_NEAR(held.pose.x, 0.0, 0.05);
+  EXPECT_NEAR(held.pose.y, 0.0, 0.02);
+  EXPECT_LT(yaw_error(held.pose.yaw, 0.0), 0.1 * kDeg);
+  // The scan's own information is reported, not the prior's: x is still the unobservable axis.
+  EXPECT_TRUE(held.degenerate);
+  EXPECT_FALSE(held.observable[0]);
+}
+
+TEST(ScanMatcher, OdometryPriorDoesNotHoldAWellConstrainedMatch) {
+  // The yard fixes every direction with a thousand HVoxels: odometry 6 cm and 0.3° off (about 3σ of
+  // its σ = 2 cm, 0.29°) ends on the truth as without the prior, within 1 cm and 0.05°.
+  const sim::Scene scene = yard_builder().build();
+  const Params p = yard_params();
+  const PlanarPose truth{0.08, -0.06, 1.0 * kDeg};
+  TwoScans s = two_scans(scene, p, {PlanarPose{}}, truth);
+  const PlanarPose odometry{truth.x + 0.05, truth.y - 0.035, truth.yaw + 0.3 * kDeg};
+  ScanMatcher free_matcher(p);
+  const MatchResult r0 = free_matcher.match(s.scan_level, s.map, odometry);
+  ScanMatcher matcher(p);
+  const MatchResult r = matcher.match(s.scan_level, s.map, odometry, CoarseSearch::kWhenFailed, std::nullopt, false,
+                                      MotionPrior::from_sigmas(odometry, 0.02, 0.005));
+  EXPECT_NEAR(r.pose.x, truth.x, 0.02);
+  EXPECT_NEAR(r.pose.y, truth.y, 0.02);
+  EXPECT_LT(yaw_error(r.pose.yaw, truth.yaw), 0.2 * kDeg);
+  EXPECT_NEAR(r.pose.x, r0.pose.x, 0.01);
+  EXPECT_NEAR(r.pose.y, r0.pose.y, 0.01);
+  EXPECT_LT(yaw_error(r.pose.yaw, r0.pose.yaw), 0.05 * kDeg);
+  EXPECT_GT(r.prior_cost, 0.0);
+  EXPECT_FALSE(r.degenerate);
+}
+
 }  // namespace
 }  // namespace hmap::slam

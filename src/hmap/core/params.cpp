@@ -173,6 +173,13 @@ std::vector<ParamRef> param_refs(Params& p) {
                   s.coarse_translation, closed(0.0, 20.0)));
   r.push_back(ref("slam.coarse_rotation", "rad", "half-width of the coarse search in yaw",
                   s.coarse_rotation, closed(0.0, kPi)));
+  r.push_back(ref("slam.odometry_sigma_translation", "m",
+                  "odometry's sigma in x and y per scan (fixed part); large = odometry only as the guess",
+                  s.odometry_sigma_translation, above(0.0, 100.0)));
+  r.push_back(ref("slam.odometry_sigma_rotation", "rad", "odometry's sigma in yaw per scan (fixed part)",
+                  s.odometry_sigma_rotation, above(0.0, 10.0)));
+  r.push_back(ref("slam.odometry_noise", "-", "odometry's sigma added per metre travelled and per radian turned",
+                  s.odometry_noise, closed(0.0, 10.0)));
   r.push_back(ref("slam.surface_max_height", "m", "HVoxels at most this tall count as horizontal surfaces (attitude fit)",
                   s.surface_max_height, above(0.0, 5.0)));
   r.push_back(ref("slam.attitude_gate", "m", "farthest a scan surface is paired with the map's (attitude fit)",

@@ -84,6 +84,12 @@ struct SlamParams {
                                            ///< search; 0 = never
   double coarse_translation = 0.5;         ///< [m] half-width of the coarse search in x and y
   double coarse_rotation = 0.5;            ///< [rad] half-width of the coarse search in yaw
+  // Odometry as a motion prior of the planar match (when the scans come with odometry): each
+  // scan-to-scan motion is trusted to σ = sigma + noise · |motion|, per axis.
+  double odometry_sigma_translation = 0.02;  ///< [m] fixed part of σ in x and y, per scan
+  double odometry_sigma_rotation = 0.005;    ///< [rad] fixed part of σ in yaw, per scan
+  double odometry_noise = 0.05;              ///< [-] σ added per metre travelled and per radian
+                                             ///< turned (wheel odometry: 1-5 %)
   // z, roll and pitch from the scans (slam/attitude.hpp), when no attitude is given.
   double surface_max_height = 0.3;         ///< [m] HVoxels at most this tall (scan and map) count as horizontal
                                            ///< surfaces for the attitude fit

@@ -212,9 +212,28 @@ SlamStep HmapSlam::process(const ScanInput& input) {
       built = winner + 1 == count;  // scan_level_ holds the last hypothesis's HVoxels
     }
   }
+  Eigen::Matrix3d predicted = Eigen::Matrix3d::Zero();  // the odometry's prior covariance
   if (scans_ > 0) {
     // The second scan has no motion prior (constant velocity predicts standing still): search.
     const auto search = scans_ == 1 && !guess ? CoarseSearch::kAlways : CoarseSearch::kWhenFailed;
+    // Odometry: its motion since the last scan, trusted to σ = sigma + noise · |motion| per axis,
+    // on top of what the last estimate was already unsure of (pose_covariance_, propagated like an
+    // EKF's: grown by each motion, shrunk by each match). After a blind stretch (scans with too
+    // few HVoxels) the prior is wide, and the map takes back the drift the odometry made there.
+    std::optional<MotionPrior> prior;
+    if (guess) {
+      const SlamParams& sp = params_.slam;
+      const PlanarPose motion = inverse(last_) * *guess;
+      const double st = sp.odometry_sigma_translation + sp.odometry_noise * std::hypot(motion.x, motion.y);
+      const double sy = sp.odometry_sigma_rotation +
+                        sp.odometry_noise * std::abs(std::remainder(motion.yaw, 2.0 * std::numbers::pi));
+      Eigen::Matrix3d J = Eigen::Matrix3d::Identity();  // ∂guess/∂last: a yaw error swings the step
+      J(0, 2) = -(guess->y - last_.y);
+      J(1, 2) = guess->x - last_.x;
+      predicted = J * pose_covariance_ * J.transpose();
+      predicted.diagonal() += Eigen::Vector3d(st * st, st * st, sy * sy);
+      prior = MotionPrior{*guess, predicted.inverse()};
+    }
     const auto planar_match = [&](CoarseSearch mode) {
       // The scan's HVoxels in the gravity-aligned sensor frame (x = y = yaw = 0), so that eq. (6)
       // moves them in the plane only.
@@ -222,7 +241,7 @@ SlamStep HmapSlam::process(const ScanInput& input) {
       built = false;
       step.match = matcher_.match(scan_level_, mapper_.map(), estimate, mode,
                                   scans_ >= 2 && !guess ? std::optional<PlanarPose>(last_) : std::nullopt,
-                                  /*thin_fallback=*/!guess);
+                                  /*thin_fallback=*/!guess, prior);
       estimate = step.match.pose;
       ++step.planar_passes;
     };
@@ -246,6 +265,13 @@ SlamStep HmapSlam::process(const ScanInput& input) {
         }
       }
     }
+  }
+  if (guess && scans_ > 0) {
+    // The estimate's uncertainty for the next scan's prior: the match's, or the prediction's when
+    // nothing was matched. Capped, so that a long blind stretch stays a finite matrix.
+    pose_covariance_ = step.matched && !step.match.skipped ? step.match.covariance : predicted;
+    constexpr double kMaxVariance = 1e4;  // (100 m)², (100 rad)²
+    for (int k = 0; k < 3; ++k) pose_covariance_(k, k) = std::min(pose_covariance_(k, k), kMaxVariance);
   }
   step.T_map_sensor = compose(estimate, attitude);
   if (step.matched && !step.match.skipped) {

@@ -114,6 +114,7 @@ class HmapSlam {
   ScanHVoxels scan_level_;
   PlanarPose last_;
   PlanarPose previous_;
+  Eigen::Matrix3d pose_covariance_ = Eigen::Matrix3d::Zero();  // of last_ (m, m, rad), with odometry
   Pose T_last_ = Pose::Identity();      // the last two full estimates, for the sweep's velocity
   Pose T_previous_ = Pose::Identity();
   std::optional<double> stamp_last_;

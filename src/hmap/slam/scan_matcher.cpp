@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numbers>
 
 #include "hmap/core/checked.hpp"
 
@@ -26,6 +27,8 @@ constexpr int kCoarseMaxSteps = 50;
 constexpr int kCoarseMaxYawSteps = 64;
 /// The degeneracy check evaluates the cost with at most this many HVoxels.
 constexpr std::size_t kCurvatureHVoxels = 500;
+/// Least s² of MotionPrior: a run of near-perfect matches must not make the odometry weightless.
+constexpr double kMinPriorWeight = 0.01;
 
 /// A scan HVoxel's position v moved by ξ (eq. 6: S(ξ) = R(φ) v + p), in cell units from the cell
 /// centres, which sit at (i + 0.5)·s: (i0, j0) = `base` is the centre below and left of it and
@@ -180,6 +183,28 @@ ScanMatcher::Linearization ScanMatcher::linearize(const PlanarPose& pose, std::s
   return lin;
 }
 
+namespace {
+Eigen::Vector3d prior_delta(const PlanarPose& pose, const MotionPrior& prior) {
+  return {pose.x - prior.mean.x, pose.y - prior.mean.y, std::remainder(pose.yaw - prior.mean.yaw, 2.0 * std::numbers::pi)};
+}
+}  // namespace
+
+double ScanMatcher::prior_cost_at(const PlanarPose& pose) const {
+  if (!prior_) return 0.0;
+  const Eigen::Vector3d delta = prior_delta(pose, *prior_);
+  return prior_weight_ * delta.dot(prior_->information * delta);
+}
+
+void ScanMatcher::add_prior(const PlanarPose& pose, Linearization& lin) const {
+  if (!prior_) return;
+  // The prior's residuals weighted by s²: Hessian s²·Λ, and the gradient side of eq. (7) −s²·Λ·Δ
+  // (g collects r·∂M/∂ξ, M = 1 − r).
+  const Eigen::Vector3d delta = prior_delta(pose, *prior_);
+  lin.H += prior_weight_ * prior_->information;
+  lin.g -= prior_weight_ * (prior_->information * delta);
+  lin.cost += prior_cost_at(pose);
+}
+
 Eigen::Vector3d ScanMatcher::solve(const Linearization& lin, bool& degenerate, Eigen::Vector3d& eigenvalues) const {
   // eq. (7), Δξ = H⁻¹ g, solved in the eigenbasis of H with yaw scaled to metres at the RMS radius:
   // directions whose eigenvalue is under degeneracy_ratio · λ_max are not moved (the guess, from
@@ -243,21 +268,27 @@ MatchResult ScanMatcher::gauss_newton(const PlanarPose& guess) {
   MatchResult result;
   const auto n = static_cast<double>(candidates_.size());
   PlanarPose pose = guess;
+  // `lin` is eq. (5) alone (reported), `total` with the motion prior (what is minimised).
   Linearization lin = linearize(pose, 1);
+  Linearization total = lin;
+  add_prior(pose, total);
   result.initial_cost = lin.cost / n;
   bool degenerate = false;
   Eigen::Vector3d eigenvalues;
   for (int it = 0; it < params_.slam.max_iterations; ++it) {
-    Eigen::Vector3d step = solve(lin, degenerate, eigenvalues);
+    Eigen::Vector3d step = solve(total, degenerate, eigenvalues);
     ++result.iterations;
     // The metric is piecewise bilinear: a full step may overshoot, so halve it until the cost drops.
     bool accepted = false;
     PlanarPose next;
     Linearization next_lin;
+    Linearization next_total;
     for (int tries = 0; tries < 4 && step.norm() > 0.0; ++tries, step *= 0.5) {
       next = {pose.x + step(0), pose.y + step(1), pose.yaw + step(2)};
       next_lin = linearize(next, 1);
-      if (next_lin.cost <= lin.cost) {
+      next_total = next_lin;
+      add_prior(next, next_total);
+      if (next_total.cost <= total.cost) {
         accepted = true;
         break;
       }
@@ -268,6 +299,7 @@ MatchResult ScanMatcher::gauss_newton(const PlanarPose& guess) {
     }
     pose = next;
     lin = next_lin;
+    total = next_total;
     if (std::hypot(step(0), step(1)) < params_.slam.convergence_translation &&
         std::abs(step(2)) < params_.slam.convergence_rotation) {
       result.converged = true;
@@ -277,6 +309,7 @@ MatchResult ScanMatcher::gauss_newton(const PlanarPose& guess) {
   (void)solve(lin, degenerate, eigenvalues);
   result.pose = pose;
   result.final_cost = lin.cost / n;
+  result.prior_cost = (total.cost - lin.cost) / n;
   result.score = lin.score / n;
   result.hvoxels_used = candidates_.size();
   result.hessian = lin.H;
@@ -334,8 +367,13 @@ std::vector<PlanarPose> ScanMatcher::coarse_search(const PlanarPose& guess) {
     return PlanarPose{guess.x + i * dt, guess.y + j * dt, guess.yaw + a * dr};
   };
   std::vector<double> costs(static_cast<std::size_t>(2 * nr + 1) * per_yaw);
+  // The prior counts as much against the thinned HVoxels as against all of them.
+  const double prior_share = static_cast<double>((candidates_.size() + stride - 1) / stride) /
+                             static_cast<double>(candidates_.size());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, costs.size(), per_yaw), [&](const auto& range) {
-    for (std::size_t k = range.begin(); k != range.end(); ++k) costs[k] = cost_only(pose_at(k), stride);
+    for (std::size_t k = range.begin(); k != range.end(); ++k) {
+      costs[k] = cost_only(pose_at(k), stride) + prior_share * prior_cost_at(pose_at(k));
+    }
   });
   std::array<Scored, kCoarseStarts> best;
   best.fill({std::numeric_limits<double>::infinity(), guess});
@@ -353,7 +391,8 @@ std::vector<PlanarPose> ScanMatcher::coarse_search(const PlanarPose& guess) {
 
 MatchResult ScanMatcher::match(const ScanHVoxels& scan_level, const HMap& map, const PlanarPose& guess,
                                CoarseSearch search, const std::optional<PlanarPose>& alternative,
-                               bool thin_fallback) {
+                               bool thin_fallback, const std::optional<MotionPrior>& prior) {
+  prior_.reset();
   select(scan_level, static_cast<float>(params_.slam.min_match_height));
   if (candidates_.size() < kMinHVoxels && thin_fallback && params_.slam.min_match_height > 0.0) {
     select(scan_level, 0.0F);
@@ -379,6 +418,13 @@ MatchResult ScanMatcher::match(const ScanHVoxels& scan_level, const HMap& map, c
   const auto half = static_cast<std::int32_t>(std::ceil(reach / params_.map.cell_size)) +
                     params_.slam.interpolation_window;
   view_.reset(map, center, half);
+  if (prior) {
+    // s²: eq. (5)'s residual variance per HVoxel, from the recent matches (this one's at the guess
+    // for the first), so that the prior weighs against the scan as σ_r² : σ_odometry².
+    const double n = static_cast<double>(candidates_.size());
+    prior_weight_ = std::max(kMinPriorWeight, reference_cost_ > 0.0 ? reference_cost_ : cost_only(guess, 1) / n);
+    prior_ = prior;
+  }
 
   MatchResult result = gauss_newton(guess);
   // Failure: Gauss-Newton ran out of iterations, or the match is much worse than the recent ones.
@@ -394,14 +440,20 @@ MatchResult ScanMatcher::match(const ScanHVoxels& scan_level, const HMap& map, c
     }
     for (const PlanarPose& start : starts) {
       MatchResult retry = gauss_newton(start);
-      if (retry.final_cost < result.final_cost) result = retry;
+      if (retry.final_cost + retry.prior_cost < result.final_cost + result.prior_cost) result = retry;
     }
     result.iterations = iterations + result.iterations;
     result.initial_cost = initial_cost;
     result.coarse_search = true;
   }
   assess_degeneracy(result);
+  if (prior_) {
+    const Eigen::Matrix3d information = result.hessian / prior_weight_ + prior_->information;
+    result.covariance = information.inverse();
+  }
   reference_score_ = reference_score_ > 0.0 ? 0.8 * reference_score_ + 0.2 * result.score : result.score;
+  reference_cost_ = reference_cost_ > 0.0 ? 0.8 * reference_cost_ + 0.2 * result.final_cost : result.final_cost;
+  prior_.reset();
   return result;
 }
 

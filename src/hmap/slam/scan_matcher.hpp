@@ -21,6 +21,24 @@ struct PlanarPose {
   double yaw = 0.0;  ///< [rad]
 };
 
+/// A Gaussian belief about ξ before the scan is matched (odometry): its mean and information
+/// matrix Λ (the inverse covariance, in (m, m, rad)). The match minimises eq. (5) plus s²·ΔᵀΛΔ,
+/// Δ = ξ − mean, s² being the recent matches' cost per HVoxel (eq. 5's residual variance): a match
+/// built on few HVoxels or along a corridor cannot move the pose farther from the odometry than
+/// the odometry's error allows, a match on many HVoxels still does.
+struct MotionPrior {
+  PlanarPose mean;
+  Eigen::Matrix3d information = Eigen::Matrix3d::Identity();
+
+  /// σ [m] in x and y, σ [rad] in yaw, independent.
+  [[nodiscard]] static MotionPrior from_sigmas(const PlanarPose& mean, double sigma_translation, double sigma_yaw) {
+    MotionPrior prior{mean, Eigen::Matrix3d::Zero()};
+    prior.information.diagonal() << 1.0 / (sigma_translation * sigma_translation),
+        1.0 / (sigma_translation * sigma_translation), 1.0 / (sigma_yaw * sigma_yaw);
+    return prior;
+  }
+};
+
 /// What one match did. The Hessian and its eigenvalues are reported so that an ill-constrained
 /// match (a featureless corridor) is visible, not hidden.
 struct MatchResult {
@@ -30,6 +48,10 @@ struct MatchResult {
   double initial_cost = 0.0;       ///< eq. (5) per HVoxel, (1/n) Σ w (1 − M_H)², at the guess
   double final_cost = 0.0;         ///< the same at ξ*
   double score = 0.0;              ///< mean M_H at ξ* [0, 1]: 1 = every HVoxel matches its column
+  double prior_cost = 0.0;         ///< the motion prior's term at ξ*, per HVoxel (0 without a prior)
+  /// With a prior: the covariance of ξ* (m, m, rad), (H/s² + Λ)⁻¹, H the scan's Hessian (eq. 8)
+  /// and s² the residual variance the prior was weighed with. Zero without a prior.
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
   std::size_t hvoxels_used = 0;    ///< scan HVoxels selected (density, min_match_height, max_hvoxels)
   Eigen::Matrix3d hessian = Eigen::Matrix3d::Zero();  ///< eq. (8) at ξ*, in (m, m, rad)
   /// Eigenvalues of the Hessian with yaw scaled by the HVoxels' RMS radius (so all three are in
@@ -81,10 +103,12 @@ class ScanMatcher {
   /// `alternative` (the last pose, when the guess extrapolates a motion): a second centre of the
   /// coarse search. A handheld sensor's turn rate changes sign from one scan to the next, so
   /// constant velocity can be farther off than no motion at all.
+  /// `prior` (odometry): the Gauss-Newton steps and the coarse search's scores include it
+  /// (MotionPrior); the degeneracy and the Hessian reported are the scan's alone.
   [[nodiscard]] MatchResult match(const ScanHVoxels& scan_level, const HMap& map, const PlanarPose& guess,
                                   CoarseSearch search = CoarseSearch::kWhenFailed,
                                   const std::optional<PlanarPose>& alternative = std::nullopt,
-                                  bool thin_fallback = false);
+                                  bool thin_fallback = false, const std::optional<MotionPrior>& prior = std::nullopt);
 
   /// eq. (5) per HVoxel at ξ for the HVoxels selected by the last match() (for tests and tools).
   [[nodiscard]] double cost_at(const PlanarPose& pose);
@@ -110,6 +134,9 @@ class ScanMatcher {
   /// The cost of linearize(pose, stride) (same terms, same order), without touching the cached
   /// F values: poses can be scored in parallel.
   [[nodiscard]] double cost_only(const PlanarPose& pose, std::size_t stride) const;
+  /// The prior's term of the cost at ξ, its gradient side and Hessian added to `lin` (no-op without one).
+  void add_prior(const PlanarPose& pose, Linearization& lin) const;
+  [[nodiscard]] double prior_cost_at(const PlanarPose& pose) const;
   [[nodiscard]] Eigen::Vector3d solve(const Linearization& lin, bool& degenerate, Eigen::Vector3d& eigenvalues) const;
   void assess_degeneracy(MatchResult& result);
   MatchResult gauss_newton(const PlanarPose& guess);
@@ -123,6 +150,9 @@ class ScanMatcher {
   std::vector<Candidate> candidates_;
   double rms_radius_ = 1.0;
   double reference_score_ = 0.0;  // running mean of the scores of the last matches
+  double reference_cost_ = 0.0;   // running mean of the final costs per HVoxel of the last matches
+  std::optional<MotionPrior> prior_;  // of the match under way
+  double prior_weight_ = 0.0;         // s² of MotionPrior for it
 };
 
 }  // namespace hmap::slam
