@@ -16,7 +16,7 @@ DEBS := cmake ninja-build g++ libeigen3-dev libnanoflann-dev libtbb-dev libcli11
         librosbag-dev libsensor-msgs-dev libnav-msgs-dev libtf2-msgs-dev python3-rosbag python3-sensor-msgs \
         python3-nav-msgs python3-tf2-msgs clang libclang-rt-14-dev
 
-.PHONY: all deps build tool demo demo-real test test-sanitize bench bench-slam clean fuzz-ci test-tsan
+.PHONY: all deps build tool demo demo-real test test-sanitize bench bench-slam bench-peers clean fuzz-ci test-tsan
 
 all: build
 
@@ -106,6 +106,15 @@ test-tsan: deps
 bench: build
 	$(BUILD)/bin/hmap bench --kitti $(DATA)/kitti_hdl64_seq16 --cell 0.2 --max-range 50
 	$(BUILD)/bin/hmap_bench
+
+# hmap beside Bonxai (compiled into $(BUILD) from ../shared/peers/bonxai when it is there; CMake's
+# HMAP_BONXAI_DIR) and OctoMap, on the same scans and poses in one process (bench/peers_main.cpp):
+# the figures of BENCHMARKS.md's first table. OctoMap takes about a minute per balm_os0 run at 0.1 m.
+bench-peers: deps $(BUILD)/build.ninja
+	cmake --build $(BUILD) -j $(JOBS) --target hmap_peers_bench
+	$(BUILD)/bin/hmap_peers_bench --kitti $(DATA)/kitti_hdl64_seq16 --cell 0.2 --max-range 50 --rounds 4 --octomap-rounds 2
+	$(BUILD)/bin/hmap_peers_bench --kitti $(DATA)/balm_os0 --cell 0.1 --max-range 25 --rounds 4 --octomap-rounds 1
+	$(BUILD)/bin/hmap_peers_bench --kitti $(DATA)/balm_os0 --cell 0.2 --max-range 25 --rounds 4 --octomap-rounds 1
 
 clean:
 	rm -rf $(BUILD) $(BUILD_SAN) $(BUILD_TSAN) out

@@ -4,6 +4,7 @@
 #include <octomap/OcTree.h>
 
 #include <malloc.h>
+#include <sys/resource.h>
 
 #include <algorithm>
 #include <cstdio>
@@ -32,30 +33,46 @@ struct Result {
   std::size_t scans = 0;
   std::size_t points = 0;
   double ms_total = 0.0;
+  double cpu_ms_total = 0.0;     ///< user + system time of all threads around the updates
   std::size_t memory_bytes = 0;  ///< the structure's own accounting
   std::size_t heap_bytes = 0;    ///< measured: allocator bytes in use held by the map (mallinfo2)
   [[nodiscard]] double ms_per_scan() const { return scans ? ms_total / static_cast<double>(scans) : 0.0; }
+  [[nodiscard]] double cpu_ms_per_scan() const { return scans ? cpu_ms_total / static_cast<double>(scans) : 0.0; }
   [[nodiscard]] double points_per_s() const { return ms_total > 0 ? static_cast<double>(points) / (ms_total / 1000.0) : 0.0; }
 };
 
-/// Bytes the allocator has handed out and not taken back, headers included.
+/// Bytes the allocator has handed out and not taken back, headers included: uordblks (blocks of
+/// the arenas) + hblkhd (blocks glibc serves by mmap, 128 KiB and up, which uordblks leaves out).
 /// (Sanitizer builds replace the allocator and report 0.)
-std::size_t heap_in_use() { return mallinfo2().uordblks; }
+std::size_t heap_in_use() {
+  const struct mallinfo2 m = mallinfo2();
+  return m.uordblks + m.hblkhd;
+}
 std::size_t heap_since(std::size_t before) {
   const std::size_t now = heap_in_use();
   return now > before ? now - before : 0;
+}
+
+/// User + system CPU time of the process, all threads [ms].
+double process_cpu_ms() {
+  rusage ru{};
+  getrusage(RUSAGE_SELF, &ru);
+  const auto ms = [](const timeval& t) { return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_usec) * 1e-3; };
+  return ms(ru.ru_utime) + ms(ru.ru_stime);
 }
 
 void print(const Result& r, bool json) {
   if (json) {
     nlohmann::json j{{"system", r.system},        {"scans", r.scans},
                      {"points", r.points},        {"ms_per_scan", r.ms_per_scan()},
+                     {"cpu_ms_per_scan", r.cpu_ms_per_scan()},
                      {"points_per_s", r.points_per_s()}, {"memory_bytes", r.memory_bytes},
                      {"heap_bytes", r.heap_bytes}};
     std::cout << j.dump() << std::endl;
   } else {
-    std::printf("%-8s %6zu scans %12zu points %10.2f ms/scan %12s points/s %12s (heap %s)\n", r.system.c_str(),
-                r.scans, r.points, r.ms_per_scan(), human_count(r.points_per_s()).c_str(),
+    std::printf("%-8s %6zu scans %12zu points %10.2f ms/scan %10.2f CPU ms/scan %12s points/s %12s (heap %s)\n",
+                r.system.c_str(), r.scans, r.points, r.ms_per_scan(), r.cpu_ms_per_scan(),
+                human_count(r.points_per_s()).c_str(),
                 human_bytes(static_cast<double>(r.memory_bytes)).c_str(),
                 human_bytes(static_cast<double>(r.heap_bytes)).c_str());
   }
@@ -75,6 +92,7 @@ void run_bench(const BenchOptions& o) {
   // the median run counts, so one run's warm-up (page faults, caches) does not decide.
   Result h{"hmap"};
   std::vector<double> run_ms;
+  std::vector<double> run_cpu_ms;
   for (int run = 0; run < o.repeat; ++run) {
     Result r{"hmap"};
     const std::size_t heap_before = heap_in_use();
@@ -83,9 +101,11 @@ void run_bench(const BenchOptions& o) {
       Mapper mapper(params);
       Progress progress("hmap", clouds.size());
       for (std::size_t k = 0; k < clouds.size(); ++k) {
+        const double cpu0 = process_cpu_ms();
         const auto t0 = Clock::now();
         const ScanStats s = mapper.integrate(clouds[k], poses[k]);
         r.ms_total += ms_since(t0);
+        r.cpu_ms_total += process_cpu_ms() - cpu0;
         r.points += s.points_in;
         progress.update(k + 1, r.ms_total / static_cast<double>(k + 1));
       }
@@ -96,10 +116,13 @@ void run_bench(const BenchOptions& o) {
     }
     r.heap_bytes = heap_since(heap_before);
     run_ms.push_back(r.ms_total);
+    run_cpu_ms.push_back(r.cpu_ms_total);
     if (run == 0) h = r;
   }
   std::sort(run_ms.begin(), run_ms.end());
+  std::sort(run_cpu_ms.begin(), run_cpu_ms.end());
   h.ms_total = run_ms[run_ms.size() / 2];
+  h.cpu_ms_total = run_cpu_ms[run_cpu_ms.size() / 2];
   print(h, o.json);
   if (o.skip_octomap) return;
 
@@ -107,6 +130,7 @@ void run_bench(const BenchOptions& o) {
   // tree and the median run counts, as for the HMAP side.
   Result oc{"octomap"};
   std::vector<double> octomap_ms;
+  std::vector<double> octomap_cpu_ms;
   for (int run = 0; run < o.octomap_repeat; ++run) {
     Result r{"octomap"};
     const std::size_t heap_before = heap_in_use();
@@ -133,9 +157,11 @@ void run_bench(const BenchOptions& o) {
       const Eigen::Vector3d origin = T.translation();
       const octomap::point3d sensor(static_cast<float>(origin.x()), static_cast<float>(origin.y()),
                                     static_cast<float>(origin.z()));
+      const double cpu0 = process_cpu_ms();
       const auto t0 = Clock::now();
       tree.insertPointCloud(cloud_map, sensor, params.map.max_range);
       r.ms_total += ms_since(t0);
+      r.cpu_ms_total += process_cpu_ms() - cpu0;
       r.points += clouds[k].size();
       progress.update(k + 1, r.ms_total / static_cast<double>(k + 1));
     }
@@ -144,10 +170,13 @@ void run_bench(const BenchOptions& o) {
     r.memory_bytes = tree.memoryUsage();
     r.heap_bytes = heap_since(heap_before);
     octomap_ms.push_back(r.ms_total);
+    octomap_cpu_ms.push_back(r.cpu_ms_total);
     if (run == 0) oc = r;
   }
   std::sort(octomap_ms.begin(), octomap_ms.end());
+  std::sort(octomap_cpu_ms.begin(), octomap_cpu_ms.end());
   oc.ms_total = octomap_ms[octomap_ms.size() / 2];
+  oc.cpu_ms_total = octomap_cpu_ms[octomap_cpu_ms.size() / 2];
   print(oc, o.json);
   if (!o.json) {
     std::printf("hmap is %.1fx faster per scan and uses %.1fx less memory (%.1fx less heap) than OctoMap "

@@ -164,6 +164,7 @@ TEST_F(CliTest, BenchPrintsOneJsonObjectPerSystem) {
     EXPECT_EQ(j.at("scans").get<int>(), 1);
     EXPECT_GT(j.at("points").get<double>(), 100000.0);
     EXPECT_GT(j.at("ms_per_scan").get<double>(), 0.0);
+    EXPECT_GT(j.at("cpu_ms_per_scan").get<double>(), 0.0);  // all threads' user + system time
     EXPECT_GT(j.at("points_per_s").get<double>(), 0.0);
     EXPECT_GT(j.at("memory_bytes").get<double>(), 0.0);
     EXPECT_TRUE(j.contains("heap_bytes"));
