@@ -266,13 +266,16 @@ MemoryBudget& memory_budget() {
   return budget;
 }
 
-void prepare_output_folder(const std::filesystem::path& dir) {
-  std::error_code ec;
+void prepare_output_set(const std::filesystem::path& dir, std::initializer_list<std::string_view> owned, std::string_view command) {
   struct stat st {};
   if (::stat(dir.c_str(), &st) == 0 && !S_ISDIR(st.st_mode)) throw Error(dir.string() + ": the output folder is a file");
-  std::filesystem::create_directories(dir, ec);
-  if (ec) throw Error(dir.string() + ": cannot create the output folder (" + ec.message() + ")");
-  check_output_folder(dir);
+  std::filesystem::path folder = std::filesystem::absolute(dir).lexically_normal();
+  if (folder.filename().empty()) folder = folder.parent_path();  // "out/x/"
+  const std::filesystem::path parent = folder.parent_path();
+  std::error_code ec;
+  std::filesystem::create_directories(parent, ec);
+  if (ec) throw Error(dir.string() + ": cannot create the folder " + parent.string() + " (" + ec.message() + ")");
+  check_output_set_folder(dir, owned, command);
 }
 
 void check_output_extension(const std::string& path, std::initializer_list<std::string_view> extensions,
