@@ -228,5 +228,10 @@ TEST_F(CliErrorsTest, TheMapGrowingBeyondTheBudgetIsRefusedByScan) {
   EXPECT_FALSE(fs::exists(path("slam")));
 }
 
+TEST_F(CliErrorsTest, AFlagValueWithATerminalEscapeIsQuotedNotSent) {
+  // CLI11 quotes the argument it cannot take; the escape is written as \x1B, in one line.
+  expect_refusal({"map", "--cell", "1\x1b[2J", path("good.xyz"), "--out", path("m.hmap")}, {"--cell", "1\\x1B[2J"});
+}
+
 }  // namespace
 }  // namespace hmap

@@ -126,81 +126,30 @@ TEST_F(TornFileTest, KilledSavesLeaveTheOldMapOrTheNewOne) {
   EXPECT_GT(killed_while_saving, 0) << "no kill landed after the save began: the test proved little";
 }
 
-/// The files of a pvox output folder, name to bytes; summary.json holds timings, so only its
-/// scan count is kept.
-std::map<std::string, std::string> pvox_set(const fs::path& dir) {
-  std::map<std::string, std::string> files;
-  for (const auto& entry : fs::directory_iterator(dir)) {
-    const std::string name = entry.path().filename().string();
-    const std::string bytes = test::read_bytes(entry.path());
-    if (name == "summary.json") {
-      const auto at = bytes.find("\"scans\": ");
-      files[name] = at == std::string::npos ? "?" : bytes.substr(at, 11);
-    } else {
-      files[name] = bytes;
+/// Kills `child`: in even runs at a random moment of up to 1.1 `full_run`s, in odd runs a random
+/// 0..`max_us` microseconds after `begun()` holds (the save or the staging folder appeared).
+/// Returns whether the kill came after it began.
+bool kill_during(test::Child& child, int run, Clock::duration full_run, std::mt19937& rng, int max_us,
+                 const std::function<bool()>& begun) {
+  bool after_begin = false;
+  if (run % 2 == 0) {
+    std::uniform_real_distribution<double> at(0.0, 1.1);
+    const auto kill_at = Clock::now() + std::chrono::duration_cast<Clock::duration>(full_run * at(rng));
+    while (Clock::now() < kill_at && !child.finished()) std::this_thread::sleep_for(std::chrono::microseconds(100));
+  } else {
+    std::uniform_int_distribution<int> after_us(0, max_us);
+    const auto give_up = Clock::now() + 5 * full_run;
+    while (!begun() && !child.finished() && Clock::now() < give_up) {
+    }
+    if (!child.finished()) {
+      after_begin = true;
+      std::this_thread::sleep_for(std::chrono::microseconds(after_us(rng)));
     }
   }
-  return files;
+  child.kill();
+  (void)child.wait();
+  return after_begin;
 }
-
-TEST_F(TornFileTest, AKilledPvoxRunLeavesTheOldFolderOrTheNewOne) {
-  HMAP_REQUIRE_DATA("balm_os0");
-  // Issue 14: the folder's map, CSV, pictures and summary are one set. Old: 1 scan; new: 2.
-  const auto pvox_args = [](int scans, const fs::path& out) {
-    return std::vector<std::string>{"pvox", "--kitti", (test::data_dir() / "balm_os0").string(), "--max-scans",
-                                    std::to_string(scans), "--edge", "0.2", "--measure", "poses", "--out", out.string()};
-  };
-  std::string out;
-  ASSERT_EQ(test::run_hmap(pvox_args(1, dir_ / "old"), dir_ / "log", out), 0) << out;
-  const auto t0 = Clock::now();
-  ASSERT_EQ(test::run_hmap(pvox_args(2, dir_ / "new"), dir_ / "log", out), 0) << out;
-  const auto full_run = Clock::now() - t0;
-  const auto old_set = pvox_set(dir_ / "old");
-  const auto new_set = pvox_set(dir_ / "new");
-  ASSERT_NE(old_set, new_set);
-  ASSERT_EQ(old_set.at("summary.json"), "\"scans\": 1,");
-
-  std::mt19937 rng(20261202);
-  const fs::path target = dir_ / "pv";
-  int kept_old = 0;
-  int got_new = 0;
-  int killed_while_writing = 0;
-  for (int run = 0; run < 16; ++run) {
-    fs::remove_all(target);
-    fs::copy(dir_ / "old", target);
-    test::Child child(pvox_args(2, target));
-    ASSERT_TRUE(child.started());
-    if (run % 2 == 0) {  // anywhere in the run
-      std::uniform_real_distribution<double> at(0.0, 1.1);
-      const auto kill_at = Clock::now() + std::chrono::duration_cast<Clock::duration>(full_run * at(rng));
-      while (Clock::now() < kill_at && !child.finished()) std::this_thread::sleep_for(std::chrono::microseconds(200));
-    } else {  // 0-20 ms after the staging folder appears: among the files being written, or the swap
-      std::uniform_int_distribution<int> after_us(0, 20000);
-      const auto give_up = Clock::now() + 5 * full_run;
-      while (temporaries(target).empty() && !child.finished() && Clock::now() < give_up) {
-      }
-      if (!child.finished()) {
-        ++killed_while_writing;
-        std::this_thread::sleep_for(std::chrono::microseconds(after_us(rng)));
-      }
-    }
-    child.kill();
-    (void)child.wait();
-    const auto set = pvox_set(target);
-    const bool is_old = set == old_set;
-    const bool is_new = set == new_set;
-    ASSERT_TRUE(is_old || is_new) << "run " << run << ": " << target << " holds " << set.size()
-                                  << " files, neither the old set nor the new one";
-    kept_old += is_old ? 1 : 0;
-    got_new += is_new ? 1 : 0;
-    for (const auto& t : temporaries(target)) fs::remove_all(t);  // a killed run leaves its staging folder
-  }
-  std::printf("[          ] 16 kills: old folder kept %d, new folder %d; %d kills after the staging folder appeared\n",
-              kept_old, got_new, killed_while_writing);
-  EXPECT_GT(kept_old, 0);
-  EXPECT_GT(killed_while_writing, 0) << "no kill landed while the set was written: the test proved little";
-}
-
 
 /// Every file under `dir` (recursively), relative name to bytes; the files named in `timed`
 /// hold timings, so only their presence is compared.
@@ -241,22 +190,7 @@ void kill_folder_runs(TornFileTest& t, const fs::path& dir, const std::string& w
     fs::copy(dir / "old", target, fs::copy_options::recursive);
     test::Child child(args(true, target));
     ASSERT_TRUE(child.started());
-    if (run % 2 == 0) {
-      std::uniform_real_distribution<double> at(0.0, 1.1);
-      const auto kill_at = Clock::now() + std::chrono::duration_cast<Clock::duration>(full_run * at(rng));
-      while (Clock::now() < kill_at && !child.finished()) std::this_thread::sleep_for(std::chrono::microseconds(200));
-    } else {
-      std::uniform_int_distribution<int> after_us(0, 20000);
-      const auto give_up = Clock::now() + 5 * full_run;
-      while (t.staging_folders(target).empty() && !child.finished() && Clock::now() < give_up) {
-      }
-      if (!child.finished()) {
-        ++killed_while_writing;
-        std::this_thread::sleep_for(std::chrono::microseconds(after_us(rng)));
-      }
-    }
-    child.kill();
-    (void)child.wait();
+    killed_while_writing += kill_during(child, run, full_run, rng, 20000, [&] { return !t.staging_folders(target).empty(); }) ? 1 : 0;
     const auto set = folder_set(target, timed);
     const bool is_old = set == old_set;
     const bool is_new = set == new_set;
@@ -271,6 +205,16 @@ void kill_folder_runs(TornFileTest& t, const fs::path& dir, const std::string& w
               what.c_str(), kept_old, got_new, killed_while_writing);
   EXPECT_GT(kept_old, 0) << what;
   EXPECT_GT(killed_while_writing, 0) << what << ": no kill landed while the set was written: the test proved little";
+}
+
+TEST_F(TornFileTest, AKilledPvoxRunLeavesTheOldFolderOrTheNewOne) {
+  HMAP_REQUIRE_DATA("balm_os0");
+  // Issue 14: the folder's map, CSV, pictures and summary are one set. Old: 1 scan; new: 2
+  // (summary.json holds timings: its presence is compared).
+  kill_folder_runs(*this, dir_, "pvox", [](bool is_new, const fs::path& out) {
+    return std::vector<std::string>{"pvox", "--kitti", (test::data_dir() / "balm_os0").string(), "--max-scans", is_new ? "2" : "1",
+                                    "--edge", "0.2", "--measure", "poses", "--out", out.string()};
+  }, {"summary.json"});
 }
 
 TEST_F(TornFileTest, AKilledSlamRunLeavesTheOldFolderOrTheNewOne) {
@@ -363,22 +307,9 @@ TEST_F(TornFileTest, AKilledPgmExportNeverLeavesAYamlBesideAnotherImage) {
     fs::copy_file(dir_ / "o" / "grid.yaml", fs::path(stem).concat(".yaml"), fs::copy_options::overwrite_existing);
     test::Child child({"export", (dir_ / "new.hmap").string(), "--pgm", stem.string()});
     ASSERT_TRUE(child.started());
-    if (run % 2 == 0) {
-      std::uniform_real_distribution<double> at(0.0, 1.1);
-      const auto kill_at = Clock::now() + std::chrono::duration_cast<Clock::duration>(full_run * at(rng));
-      while (Clock::now() < kill_at && !child.finished()) std::this_thread::sleep_for(std::chrono::microseconds(100));
-    } else {  // 0-2 ms after the image's temporary file appears: writing, renaming, or between the two
-      std::uniform_int_distribution<int> after_us(0, 2000);
-      const auto give_up = Clock::now() + 5 * full_run;
-      while (temporaries(fs::path(stem).concat(".pgm")).empty() && !child.finished() && Clock::now() < give_up) {
-      }
-      if (!child.finished()) {
-        ++killed_while_saving;
-        std::this_thread::sleep_for(std::chrono::microseconds(after_us(rng)));
-      }
-    }
-    child.kill();
-    (void)child.wait();
+    // Odd runs: 0-2 ms after the image's temporary file appears (writing, renaming, or between).
+    killed_while_saving +=
+        kill_during(child, run, full_run, rng, 2000, [&] { return !temporaries(fs::path(stem).concat(".pgm")).empty(); }) ? 1 : 0;
     const PgmPair now = read_pair(stem);
     // Each file whole; and a YAML only beside the image it was written with.
     ASSERT_TRUE(now.pgm == old_pair.pgm || now.pgm == new_pair.pgm) << "run " << run << ": a torn image";
