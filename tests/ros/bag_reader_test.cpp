@@ -60,6 +60,13 @@ class BagReaderTest : public ::testing::Test {
     }
     return "<no exception>";
   }
+  /// The bytes of the small bag the suite writes.
+  static std::string tiny_bag() {
+    std::ifstream in(dir_ / "tiny.bag", std::ios::binary);
+    std::stringstream buffer;
+    buffer << in.rdbuf();
+    return buffer.str();
+  }
   static inline fs::path dir_;
   static inline bool made_ = false;
 };
@@ -165,10 +172,7 @@ TEST_F(BagReaderTest, CloudWithoutPoseIsOneLineNamingTopicAndStamp) {
 }
 
 TEST_F(BagReaderTest, DamagedBagsGiveInputErrors) {
-  std::ifstream in(dir_ / "tiny.bag", std::ios::binary);
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  const std::string bytes = buffer.str();
+  const std::string bytes = tiny_bag();
   const fs::path path = dir_ / "damaged.bag";
   const auto try_read = [&](const std::string& content, const std::string& what) {
     std::ofstream(path, std::ios::binary).write(content.data(), static_cast<std::streamsize>(content.size()));
@@ -199,10 +203,7 @@ TEST_F(BagReaderTest, DamagedBagsGiveInputErrors) {
 TEST_F(BagReaderTest, ACutOffBagSaysHowToRecoverIt) {
   // A recorder killed mid-write leaves the chunks before the cut, and no index: every cut of the
   // bag's second half is refused by name and position, with rosbag's tool for it.
-  std::ifstream in(dir_ / "tiny.bag", std::ios::binary);
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  const std::string bytes = buffer.str();
+  const std::string bytes = tiny_bag();
   const fs::path path = dir_ / "cut.bag";
   for (const double share : {0.5, 0.75, 0.99}) {
     const std::string cut = bytes.substr(0, static_cast<std::size_t>(share * static_cast<double>(bytes.size())));
