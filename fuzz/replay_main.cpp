@@ -26,6 +26,7 @@ HMAP_FUZZ_DECLARE(pvox_binary)
 HMAP_FUZZ_DECLARE(pvox_csv)
 HMAP_FUZZ_DECLARE(config)
 HMAP_FUZZ_DECLARE(params_cli)
+HMAP_FUZZ_DECLARE(cli_flags)
 #ifdef HMAP_FUZZ_HAVE_ROS
 HMAP_FUZZ_DECLARE(rosbag)
 #endif
@@ -54,6 +55,7 @@ constexpr Target kTargets[] = {
     {"pvox_csv", hmap_fuzz_pvox_csv},
     {"config", hmap_fuzz_config},
     {"params_cli", hmap_fuzz_params_cli},
+    {"cli_flags", hmap_fuzz_cli_flags},
 #ifdef HMAP_FUZZ_HAVE_ROS
     {"rosbag", hmap_fuzz_rosbag},
 #endif

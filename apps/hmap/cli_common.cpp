@@ -160,12 +160,16 @@ void make_gravity_aligned(ScanSource& src, const ScanSourceOptions& o, bool rgbd
         points_world.push_back((poses[k] * cloud[i].cast<double>()).cast<float>());
       }
     }
-    FloorEstimate floor = estimate_floor(points_world, prior);
-    if (!floor.found) {
-      throw Error("no floor plane found in " + std::to_string(frames) + " frames; give the up axis with --up AXIS");
-    }
     std::vector<Eigen::Vector3d> sensors;
     for (const auto& T : poses) sensors.push_back(T.translation());
+    const FloorParams floor_params;
+    FloorEstimate floor = estimate_floor(points_world, prior, floor_params, sensors);
+    if (!floor.found) {
+      throw Error(format("no floor plane found in %zu frames (a plane within %.0f deg of the sensors' up and %.0f m of a sensor, "
+                         "holding %.0f %% of the points); give the up axis with --up AXIS or --rotation",
+                         frames, floor_params.max_tilt * 180.0 / M_PI, floor_params.max_sensor_distance,
+                         floor_params.min_inlier_fraction * 100.0));
+    }
     const bool flipped = orient_floor_below_sensors(floor, sensors, prior);
     T_map_world = gravity_rotation(floor.up_world);
     src.description += format("%sup from the floor plane (%.3f, %.3f, %.3f)%s, %zu of %zu points on it",
@@ -266,13 +270,16 @@ MemoryBudget& memory_budget() {
   return budget;
 }
 
-void prepare_output_folder(const std::filesystem::path& dir) {
-  std::error_code ec;
+void prepare_output_set(const std::filesystem::path& dir, std::initializer_list<std::string_view> owned, std::string_view command) {
   struct stat st {};
   if (::stat(dir.c_str(), &st) == 0 && !S_ISDIR(st.st_mode)) throw Error(dir.string() + ": the output folder is a file");
-  std::filesystem::create_directories(dir, ec);
-  if (ec) throw Error(dir.string() + ": cannot create the output folder (" + ec.message() + ")");
-  check_output_folder(dir);
+  std::filesystem::path folder = std::filesystem::absolute(dir).lexically_normal();
+  if (folder.filename().empty()) folder = folder.parent_path();  // "out/x/"
+  const std::filesystem::path parent = folder.parent_path();
+  std::error_code ec;
+  std::filesystem::create_directories(parent, ec);
+  if (ec) throw Error(dir.string() + ": cannot create the folder " + parent.string() + " (" + ec.message() + ")");
+  check_output_set_folder(dir, owned, command);
 }
 
 void check_output_extension(const std::string& path, std::initializer_list<std::string_view> extensions,

@@ -169,9 +169,10 @@ decltype(auto) for_scan(const ScanSource& src, std::size_t k, Step&& step) {
   }
 }
 
-/// Creates the output folder `dir` (and its parents) before the work, and checks that files can
-/// be written in it; hmap::Error naming it otherwise (not the standard library's message).
-void prepare_output_folder(const std::filesystem::path& dir);
+/// Before the work of a command that writes a folder as one set (write_folder_atomic): creates
+/// the parents of `dir` and checks that `dir` can be replaced by what `command` writes (`owned`,
+/// as check_output_set_folder); hmap::Error naming it otherwise (not the standard library's message).
+void prepare_output_set(const std::filesystem::path& dir, std::initializer_list<std::string_view> owned, std::string_view command);
 
 /// Refuses an output path whose extension (any letter case) is not one of `extensions`: `hmap map
 /// --out a.ply` wrote .hmap bytes into a.ply, and a viewer then failed on it. `what` names the
@@ -186,6 +187,10 @@ using Clock = std::chrono::steady_clock;
 [[nodiscard]] inline double ms_since(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
 }
+
+/// The whole command line of `hmap`: the global options and every command (apps/hmap/app.cpp).
+/// main() parses with it; the fuzz target cli_flags parses with it, its commands not run.
+void configure_app(CLI::App& app);
 
 void add_map_command(CLI::App& app);
 void add_info_command(CLI::App& app);

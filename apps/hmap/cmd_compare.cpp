@@ -86,12 +86,34 @@ nlohmann::json grid_json(const GridScores& s) {
           {"overhang_cells", s.overhang}, {"overhang_free", s.overhang_accuracy()}};
 }
 
+/// The three maps grow with the area seen: checked against the memory budget after scan `k`.
+void check_compare_memory(const ScanSource& src, std::size_t k, const HybridMapper& hybrid, const ElevationMapper& elevation,
+                          const octomap::OcTree* octree) {
+  double bytes = static_cast<double>(hybrid.map().memory_bytes() + hybrid.grid().memory_bytes() + elevation.map().memory_bytes());
+  if (octree != nullptr) {
+    // OctoMap's own count walks the tree; a bound from its node count (each node with a children
+    // array) is O(1), and the walk is done only when that bound does not fit.
+    const double bound = static_cast<double>(octree->size()) * static_cast<double>(octree->memoryUsageNode() + 8 * sizeof(void*));
+    const bool bound_fits = bytes + bound <= static_cast<double>(memory_budget().bytes);
+    bytes += bound_fits ? bound : static_cast<double>(octree->memoryUsage());
+  }
+  for_scan(src, k, [&] { memory_budget().require(bytes, "the comparison"); });
+}
+
+/// Compares on the scans of `src`, writing the files into `dir`.
+void compare_into(const CompareOptions& o, const Params& params, const ScanSource& src, const std::filesystem::path& dir);
+
 void run_compare(const CompareOptions& o) {
   const Params params = o.params.resolve();
   const ScanSource src = o.open_inputs(/*poses_required=*/true);
   if (src.scans.empty()) throw Error("no scans to compare on");
+  prepare_output_set(o.out, {"hmap.hmap", "compare_top.png", "compare_oblique.png", "report.md", "report.json"}, "compare");
+  // The map, pictures and reports are one set: a kill leaves the old folder or the new one.
+  write_folder_atomic(o.out, [&](const std::filesystem::path& dir) { compare_into(o, params, src, dir); });
+}
+
+void compare_into(const CompareOptions& o, const Params& params, const ScanSource& src, const std::filesystem::path& dir) {
   const PoseList& poses = *src.T_map_scan;
-  prepare_output_folder(o.out);
 
   // The same scans, once read, into the three systems.
   HybridMapper hybrid(params);
@@ -134,6 +156,7 @@ void run_compare(const CompareOptions& o) {
     }
     const Eigen::Vector3d origin = T.translation();
     if (o.skip_octomap) {
+      check_compare_memory(src, k, hybrid, elevation, nullptr);
       progress.update(k + 1, r_hmap.ms_per_scan / static_cast<double>(k + 1));
       continue;
     }
@@ -142,6 +165,7 @@ void run_compare(const CompareOptions& o) {
                                                          static_cast<float>(origin.z())),
                             params.map.max_range);
     r_octo.ms_per_scan += ms_since(t0);
+    check_compare_memory(src, k, hybrid, elevation, &octree);
     progress.update(k + 1, r_hmap.ms_per_scan / static_cast<double>(k + 1));
   }
   progress.finish();
@@ -164,7 +188,7 @@ void run_compare(const CompareOptions& o) {
   r_hmap.memory_bytes = hybrid.map().stats().memory_bytes + hybrid.grid().memory_bytes();
   r_25d.memory_bytes = elevation.map().memory_bytes() + grid_25d.memory_bytes();
   r_octo.memory_bytes = octree.memoryUsage();
-  save_hmap(std::filesystem::path(o.out) / "hmap.hmap", hybrid.map(), hybrid.ground_patches(), &hybrid.grid());
+  save_hmap(dir / "hmap.hmap", hybrid.map(), hybrid.ground_patches(), &hybrid.grid());
 
   // Pictures: Fig. 5/6's five columns, top-down and oblique.
   const MapStats st = hybrid.map().stats();
@@ -182,7 +206,7 @@ void run_compare(const CompareOptions& o) {
                                      {"IIIb HMAP 2D grid judged from the final map", render_occupancy(grid_final, vp, reading)},
                                      {"IV 2.5D", render_top_in(display_25d, range, vp)},
                                      {"V 2D grid of the 2.5D map", render_occupancy(grid_25d, vp, reading)}});
-  const auto out = [&](const char* name) { return (std::filesystem::path(o.out) / name).string(); };
+  const auto out = [&](const char* name) { return (dir / name).string(); };
   write_png(out("compare_top.png"), top);
   const int oblique_px = std::max(300, o.max_pixels * 2 / 3);
   write_png(out("compare_oblique.png"), side_by_side({{"II HMAP", render_oblique(hmap_cut, range, oblique_px)},
@@ -195,9 +219,9 @@ void run_compare(const CompareOptions& o) {
   const double robot_height = o.robot_height.value_or(params.occupancy.z_plus);
   std::optional<GridScores> g_hmap, g_hmap_final, g_hmap_fused, g_25d, g_octo;
   if (!o.truth.empty()) {
-    const std::filesystem::path dir(o.truth);
-    const auto seen_path = dir / "truth_seen.ply";
-    const auto surface_path = dir / "truth.ply";
+    const std::filesystem::path truth_dir(o.truth);
+    const auto seen_path = truth_dir / "truth_seen.ply";
+    const auto surface_path = truth_dir / "truth.ply";
     if (!std::filesystem::exists(seen_path) || !std::filesystem::exists(surface_path)) {
       throw Error(o.truth + ": expected truth.ply and truth_seen.ply (as `hmap simulate` writes them)");
     }
@@ -205,7 +229,7 @@ void run_compare(const CompareOptions& o) {
     const PointCloud surface = read_cloud(surface_path);
     // The walkable ground apart (written by `hmap simulate` since 2026-12-02): without it the local
     // ground is the lowest surface point around, which a buried kerb face pulls down.
-    const auto ground_path = dir / "truth_ground.ply";
+    const auto ground_path = truth_dir / "truth_ground.ply";
     const PointCloud truth_ground = std::filesystem::exists(ground_path) ? read_cloud(ground_path) : PointCloud{};
     r_hmap.metrics = evaluate_map(hybrid.map(), seen);
     r_25d.metrics = evaluate_map(elevation_hmap, seen);

@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "cli_common.hpp"
+#include "hmap/core/format.hpp"
 #include "hmap/eval/map_metrics.hpp"
 #include "hmap/io/atomic_file.hpp"
 #include "hmap/io/hmap_file.hpp"
@@ -27,9 +28,18 @@ struct DemoOptions {
   std::size_t frames = 0;
 };
 
+/// Runs the demo, writing its files into `dir`; returns the line to print.
+std::string run_demo_into(const DemoOptions& o, const std::filesystem::path& dir);
+
 void run_demo(const DemoOptions& o) {
-  const std::filesystem::path dir = o.out;
-  prepare_output_folder(dir);
+  prepare_output_set(o.out, {"sequence/", "map.hmap", "map_hvoxels.ply", "map_top.png", "map_oblique.png", "report.md"}, "demo");
+  // Every file is written into a staging folder that replaces o.out at the end, as one set.
+  std::string summary;
+  write_folder_atomic(o.out, [&](const std::filesystem::path& dir) { summary = run_demo_into(o, dir); });
+  std::fputs(summary.c_str(), stdout);
+}
+
+std::string run_demo_into(const DemoOptions& o, const std::filesystem::path& dir) {
   const auto t_start = Clock::now();
 
   // 1. Simulate: the scene, the sensor along the scripted path, the truth.
@@ -40,7 +50,7 @@ void run_demo(const DemoOptions& o) {
   spec.frames = o.frames;
   std::optional<Progress> sim_progress;
   const auto t_sim = Clock::now();
-  const SimulatedRecording rec = simulate(spec, [&](std::size_t done, std::size_t n) {
+  const SimulatedRecording rec = simulate(spec, [&](std::size_t done, std::size_t n, std::size_t) {
     if (!sim_progress) sim_progress.emplace("simulating", n);
     sim_progress->update(done, ms_since(t_sim) / static_cast<double>(done));
   });
@@ -107,12 +117,12 @@ void run_demo(const DemoOptions& o) {
     << "Files: `map.hmap`, `map_hvoxels.ply` (boxes for MeshLab / CloudCompare), `map_top.png` (top view, the path "
     << "in white), `map_oblique.png`.\n";
   write_file_atomic(dir / "report.md", r.str());
-  std::printf("Demo: simulated %zu %s frames of '%s' (%.0f m), mapped them at %.1f ms per scan into %zu HVoxels; "
+  return format("Demo: simulated %zu %s frames of '%s' (%.0f m), mapped them at %.1f ms per scan into %zu HVoxels; "
               "against the truth: precision %.3f, recall %.3f (within one voxel %.3f / %.3f), Chamfer %.3f m. "
               "Wrote %s/{report.md, map.hmap, map_hvoxels.ply, map_top.png, map_oblique.png, sequence/} in %.1f s.\n",
               rec.scans.size(), o.sensor.c_str(), o.scene.c_str(), length, ms_map / static_cast<double>(rec.scans.size()),
               st.hvoxels, m.exact.precision, m.exact.recall, m.tolerant.precision, m.tolerant.recall, m.chamfer.chamfer_m,
-              dir.string().c_str(), ms_since(t_start) / 1000.0);
+              o.out.c_str(), ms_since(t_start) / 1000.0);
 }
 
 }  // namespace

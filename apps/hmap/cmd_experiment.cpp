@@ -95,9 +95,16 @@ nlohmann::json run_json(const FilterRun& run, const pvox::BoxesRecording& rec) {
   return j;
 }
 
+/// The experiment, its files written into `dir`.
+void pvox_boxes_into(const ExperimentOptions& o, const std::filesystem::path& dir);
+
 void run_pvox_boxes(const ExperimentOptions& o) {
-  const std::filesystem::path dir = o.out;
-  prepare_output_folder(dir);
+  prepare_output_set(o.out, {"rbf_*", "brf_*", "report.json", "report.md"}, "experiment");
+  // The maps, pictures and reports are one set: a kill leaves the old folder or the new one.
+  write_folder_atomic(o.out, [&](const std::filesystem::path& dir) { pvox_boxes_into(o, dir); });
+}
+
+void pvox_boxes_into(const ExperimentOptions& o, const std::filesystem::path& dir) {
   pvox::BoxesExperimentParams sim;
   sim.seed = o.seed;
   if (o.quick) {
@@ -178,7 +185,7 @@ void run_pvox_boxes(const ExperimentOptions& o) {
               rbf.average, brf.average, human_bytes(static_cast<double>(sizes.raw_csv)).c_str(),
               human_bytes(static_cast<double>(sizes.voxel_csv)).c_str(), human_bytes(static_cast<double>(sizes.binary)).c_str(),
               static_cast<double>(sizes.raw_csv) / static_cast<double>(std::max<std::uintmax_t>(1, sizes.binary)),
-              (dir / "report.md").c_str());
+              (std::filesystem::path(o.out) / "report.md").c_str());
 }
 
 }  // namespace

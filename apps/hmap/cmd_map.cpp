@@ -64,6 +64,10 @@ void run_map(const MapOptions& o) {
         no_ground += h.occupancy.no_ground;
         grid_rays += h.occupancy.rays;
       }
+      // The map grows with the area seen: refused by scan, before it outgrows the machine.
+      const double bytes = o.hvoxels_only ? static_cast<double>(mapper.map().memory_bytes())
+                                          : static_cast<double>(hybrid.map().memory_bytes() + hybrid.grid().memory_bytes());
+      memory_budget().require(bytes, "the map");
     });
     ms_integrate += ms_since(t0);
     total.points_in += s.points_in;

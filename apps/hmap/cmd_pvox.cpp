@@ -37,27 +37,6 @@ struct PvoxOptions : InputOptions {
 
 /// What a pvox run writes into its folder: the folder is replaced as a whole, so one that holds
 /// anything else is refused before the work instead of losing it.
-constexpr std::array<std::string_view, 7> kPvoxFiles = {"map.pvox",     "voxels.csv",  "points.csv",      "summary.json",
-                                                         "map_top.png", "map_iso.png", "map_gradient.png"};
-
-void check_pvox_folder(const std::filesystem::path& out) {
-  std::error_code ec;
-  const auto status = std::filesystem::symlink_status(out, ec);
-  if (ec || !std::filesystem::exists(status)) {
-    check_output_folder(out.has_parent_path() ? out.parent_path() : std::filesystem::path("."), out);
-    return;
-  }
-  if (!std::filesystem::is_directory(status)) throw Error(out.string() + ": the output folder is not a folder");
-  check_output_folder(out.has_parent_path() ? out.parent_path() : std::filesystem::path("."), out);
-  for (const auto& entry : std::filesystem::directory_iterator(out)) {
-    const std::string name = entry.path().filename().string();
-    const bool ours = std::find(kPvoxFiles.begin(), kPvoxFiles.end(), name) != kPvoxFiles.end();
-    if (!ours || !entry.is_regular_file()) {
-      throw Error(out.string() + ": holds '" + name + "', which pvox does not write; the folder is replaced as a whole, so give a new one");
-    }
-  }
-}
-
 /// Maps the scans of `src` with `mapper` and writes the folder's files into `dir`.
 void write_pvox_run(const PvoxOptions& o, const ScanSource& src, pvox::PvoxMapper& mapper, const PoseList* command_source,
                     bool use_poses, const std::filesystem::path& dir);
@@ -65,7 +44,8 @@ void write_pvox_run(const PvoxOptions& o, const ScanSource& src, pvox::PvoxMappe
 void run_pvox(const PvoxOptions& o) {
   // The folder's files are one set (the map, its CSV, pictures and summary): written into a
   // staging folder and swapped in at the end, so that a kill leaves the old set or the new one.
-  check_pvox_folder(o.out);  // before the work
+  prepare_output_set(o.out, {"map.pvox", "voxels.csv", "points.csv", "summary.json", "map_top.png", "map_iso.png", "map_gradient.png"},
+                     "pvox");  // before the work
   const ScanSource src = o.open_inputs(/*poses_required=*/false);
   std::optional<PoseList> odometry;
   if (!o.odometry.empty()) {
@@ -94,15 +74,9 @@ void run_pvox(const PvoxOptions& o) {
 
   // Commands: the odometry's relative motions, else those of the given poses, else standing still.
   const PoseList* command_source = odometry ? &*odometry : src.T_map_scan ? &*src.T_map_scan : nullptr;
-  const std::filesystem::path staging = make_staging_folder(o.out);
-  try {
-    write_pvox_run(o, src, mapper, command_source, use_poses, staging);
-  } catch (...) {
-    std::error_code ignored;
-    std::filesystem::remove_all(staging, ignored);
-    throw;
-  }
-  replace_folder_atomic(staging, o.out);
+  write_folder_atomic(o.out, [&](const std::filesystem::path& dir) {
+    write_pvox_run(o, src, mapper, command_source, use_poses, dir);
+  });
 }
 
 void write_pvox_run(const PvoxOptions& o, const ScanSource& src, pvox::PvoxMapper& mapper, const PoseList* command_source,

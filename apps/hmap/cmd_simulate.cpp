@@ -3,6 +3,7 @@
 #include <cstdio>
 
 #include "cli_common.hpp"
+#include "hmap/io/atomic_file.hpp"
 #include "hmap/io/imu_text.hpp"
 #include "hmap/io/ply_export.hpp"
 #include "hmap/io/sequence_writer.hpp"
@@ -18,19 +19,34 @@ struct SimulateOptions {
 };
 
 void run_simulate(const SimulateOptions& o) {
-  prepare_output_folder(o.out);  // before the work
+  prepare_output_set(o.out, {"velodyne/", "poses.txt", "times.txt", "odometry.txt", "truth.ply", "truth_seen.ply", "truth_ground.ply", "imu.txt"},
+                     "simulate");  // before the work
   Progress progress("simulating", 1);
   const auto t0 = Clock::now();
   std::size_t total = 0;
-  const SimulatedRecording rec = simulate(o.spec, [&](std::size_t done, std::size_t n) {
-    if (total == 0) progress = Progress("simulating", total = n);
+  const SimulatedRecording rec = simulate(o.spec, [&](std::size_t done, std::size_t n, std::size_t points) {
+    if (total == 0) {
+      // Said before the rest of the work (the office at full rate is 1.7 GB), and held in memory
+      // until written: checked against the memory budget.
+      const double bytes = recording_bytes(points, done, n);
+      std::printf("simulate: %zu frames of about %s points: about %s to write (as much memory while simulating); "
+                  "--frames N or --stride N make it smaller.\n",
+                  n, human_count(static_cast<double>(points) / static_cast<double>(done)).c_str(), human_bytes(bytes).c_str());
+      std::fflush(stdout);
+      memory_budget().require(bytes, "the simulated recording (--frames N or --stride N make it smaller)");
+      progress = Progress("simulating", total = n);
+    }
     progress.update(done, ms_since(t0) / static_cast<double>(done));
   });
   progress.finish();
-  write_simulated_sequence(o.out, rec.scans, rec.T_world_sensor, rec.times, rec.odometry, rec.truth_surface);
-  write_points_ply(std::filesystem::path(o.out) / "truth_seen.ply", rec.truth_seen);
-  write_points_ply(std::filesystem::path(o.out) / "truth_ground.ply", rec.truth_ground);
-  if (!rec.imu.empty()) write_imu_text(std::filesystem::path(o.out) / "imu.txt", rec.imu);
+  // One set: a kill leaves the old recording or the new one (a shorter run over a longer one
+  // used to leave the old run's last scans beside the new poses).
+  write_folder_atomic(o.out, [&](const std::filesystem::path& dir) {
+    write_simulated_sequence(dir, rec.scans, rec.T_world_sensor, rec.times, rec.odometry, rec.truth_surface);
+    write_points_ply(dir / "truth_seen.ply", rec.truth_seen);
+    write_points_ply(dir / "truth_ground.ply", rec.truth_ground);
+    if (!rec.imu.empty()) write_imu_text(dir / "imu.txt", rec.imu);
+  });
   const double length = path_length(rec.T_world_sensor);
   std::printf("Simulated %zu %s frames of '%s' (seed %llu) along %.1f m in %.1f s: %s points. Wrote %s: "
               "velodyne/*.bin, poses.txt (truth), times.txt, odometry.txt (noisy), truth.ply (%s surface "

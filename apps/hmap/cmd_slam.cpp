@@ -83,7 +83,7 @@ void run_slam(const SlamOptions& o) {
     return p;
   };
   Params params = resolved("outdoor");
-  prepare_output_folder(o.out);  // before the work
+  prepare_output_set(o.out, {"poses.txt", "poses_tum.txt", "matches.csv", "map.hmap", "trajectory.png"}, "slam");  // before the work
   const ScanSource src = ScanSource::open(o.sensors, o.kitti, o.files, "", o.scans, /*poses_required=*/false);
   // Defaults the first scan can tell (the ring spacing), for parameters left at the preset's value.
   CloudReadStats read_stats;
@@ -197,7 +197,11 @@ void run_slam(const SlamOptions& o) {
       const auto hi = std::max_element(point_times.begin(), point_times.end());
       in.imu = imu->prior_at(times[k], hi == point_times.end() ? 0.0 : static_cast<double>(*hi));
     }
-    const slam::SlamStep step = for_scan(src, k, [&] { return slam.process(in); });
+    const slam::SlamStep step = for_scan(src, k, [&] {
+      slam::SlamStep s = slam.process(in);
+      memory_budget().require(static_cast<double>(slam.map().memory_bytes()), "the map");  // grows with the area seen
+      return s;
+    });
     deskewed += step.deskewed ? 1 : 0;
     const double ms = ms_since(t0);
     ms_total += ms;
@@ -230,17 +234,19 @@ void run_slam(const SlamOptions& o) {
   }
   progress.finish();
 
-  const auto dir = std::filesystem::path(o.out);
-  write_poses_kitti(dir / "poses.txt", estimate);
-  write_poses_tum(dir / "poses_tum.txt", times, estimate);
-  write_file_atomic(dir / "matches.csv", log);
-  save_hmap(dir / "map.hmap", slam.map());
-  const HeightRange range = resolve_range(slam.map(), {});
-  TopViewport vp;
-  RgbImage picture = render_top(slam.map(), range, 2000, vp, 2.0);
-  if (truth) draw_path(picture, vp, *truth, 255, 255, 255);
-  draw_path(picture, vp, estimate, 255, 0, 255);
-  write_png(dir / "trajectory.png", picture);
+  // The poses, the map and the picture are one set: a kill leaves the old folder or the new one.
+  write_folder_atomic(o.out, [&](const std::filesystem::path& dir) {
+    write_poses_kitti(dir / "poses.txt", estimate);
+    write_poses_tum(dir / "poses_tum.txt", times, estimate);
+    write_file_atomic(dir / "matches.csv", log);
+    save_hmap(dir / "map.hmap", slam.map());
+    const HeightRange range = resolve_range(slam.map(), {});
+    TopViewport vp;
+    RgbImage picture = render_top(slam.map(), range, 2000, vp, 2.0);
+    if (truth) draw_path(picture, vp, *truth, 255, 255, 255);
+    draw_path(picture, vp, estimate, 255, 0, 255);
+    write_png(dir / "trajectory.png", picture);
+  });
 
   const double matched = n > 1 ? static_cast<double>(n - 1) : 1.0;
   const double scored = n > 1 + skipped ? static_cast<double>(n - 1 - skipped) : 1.0;  // mean M_H over these

@@ -72,6 +72,15 @@ void fill_quad(RgbImage& img, const std::array<Eigen::Vector2d, 4>& q, std::uint
   }
 }
 
+/// A scale bar in the bottom-left corner of a top-down picture of `m_per_px` metres per pixel.
+void draw_scale(RgbImage& img, double m_per_px) {
+  TopViewport viewport;
+  viewport.m_per_px = m_per_px;
+  viewport.width = img.width;
+  viewport.height = img.height;
+  draw_legend_and_scale(img, viewport, {});
+}
+
 void draw_line(RgbImage& img, double x0, double y0, double x1, double y1, std::uint8_t r, std::uint8_t g, std::uint8_t b) {
   const int n = static_cast<int>(std::ceil(std::max(std::abs(x1 - x0), std::abs(y1 - y0)))) + 1;
   for (int k = 0; k <= n; ++k) {
@@ -119,6 +128,7 @@ RgbImage render_pvox_top(const pvox::VoxelMap& map, const PvoxView& view) {
       }
     }
   }
+  draw_scale(img, m_per_px);
   return img;
 }
 
@@ -213,6 +223,7 @@ RgbImage render_pvox_gradient(const pvox::VoxelMap& map, const PvoxView& view, d
       draw_line(img, x1, y1, x1 + back.x() - 0.6 * side.x(), y1 + back.y() - 0.6 * side.y(), 40, 140, 255);
     }
   }
+  draw_scale(img, m_per_px);
   return img;
 }
 

@@ -16,12 +16,14 @@ struct PvoxView {
   int max_pixels = 1200;                        ///< of the longer side
 };
 
-/// Top view: per pixel the highest occupied voxel, coloured by height, darker for lower p.
+/// Top view: per pixel the highest occupied voxel, coloured by height, darker for lower p; a
+/// scale bar (draw_legend_and_scale) in the bottom-left corner.
 [[nodiscard]] RgbImage render_pvox_top(const pvox::VoxelMap& map, const PvoxView& view);
 /// Isometric view from the south-west, 35° up: each occupied voxel a shaded cube, height-coloured.
 [[nodiscard]] RgbImage render_pvox_iso(const pvox::VoxelMap& map, const PvoxView& view);
 /// The field on the plane z = `z`: p as grey (black 0, white 1; unknown 0.5 mid-grey), and arrows
-/// of −∇p (away from obstacles, towards free space) every `arrow_step_px` pixels, length ∝ |∇p|.
+/// of −∇p (away from obstacles, towards free space) every `arrow_step_px` pixels, length ∝ |∇p|;
+/// a scale bar as the top view. (The isometric view has none: its scale changes across it.)
 [[nodiscard]] RgbImage render_pvox_gradient(const pvox::VoxelMap& map, const PvoxView& view, double z, int arrow_step_px = 14);
 
 }  // namespace hmap::cli

@@ -81,7 +81,12 @@ double path_length(const PoseList& poses) {
   return length;
 }
 
-SimulatedRecording simulate(const SimulationSpec& spec, const std::function<void(std::size_t, std::size_t)>& progress) {
+double recording_bytes(std::size_t points_done, std::size_t done, std::size_t frames) {
+  if (done == 0) return 0.0;
+  return static_cast<double>(points_done) / static_cast<double>(done) * static_cast<double>(frames) * (16.0 + 12.0);
+}
+
+SimulatedRecording simulate(const SimulationSpec& spec, const std::function<void(std::size_t, std::size_t, std::size_t)>& progress) {
   if (spec.stride == 0) throw Error("--stride must be at least 1");
   if (!(spec.truth_spacing >= 0.005)) throw Error("--truth-spacing must be at least 0.005 m");
   sim::Scene scene = [&] {
@@ -116,7 +121,7 @@ SimulatedRecording simulate(const SimulationSpec& spec, const std::function<void
     // What the sensor could see of the scene as it stands at the end (moving objects gone).
     const sim::SimulatedScan e = scan_with(exact, scene, rec.T_world_sensor[k], t_end);
     for (const Point3f& p : e.points_sensor) rec.truth_seen.push_back((rec.T_world_sensor[k] * p.cast<double>()).cast<float>());
-    if (progress) progress(k + 1, n);
+    if (progress) progress(k + 1, n, rec.points);
   }
   if (spec.imu_rate > 0.0) {
     // An IMU on the sensor over the whole path, on a smooth interpolation of its frames.

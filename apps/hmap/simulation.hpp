@@ -40,8 +40,14 @@ struct SimulatedRecording {
 /// Length of the path through the poses' positions [m].
 [[nodiscard]] double path_length(const PoseList& poses);
 
-/// Runs the simulation; `progress(done, total)` is called after each frame.
+/// Runs the simulation; `progress(done, total, points)` is called after each frame, with the
+/// points of the frames done so far (after the first: what the whole recording will weigh).
 [[nodiscard]] SimulatedRecording simulate(const SimulationSpec& spec,
-                                          const std::function<void(std::size_t, std::size_t)>& progress = {});
+                                          const std::function<void(std::size_t, std::size_t, std::size_t)>& progress = {});
+
+/// The bytes a recording of `frames` frames will take on disk and in memory, from the points of
+/// its first `done` frames: each point a 16-byte KITTI record and a 12-byte truth_seen.ply vertex (the
+/// dense truth.ply comes on top).
+[[nodiscard]] double recording_bytes(std::size_t points_done, std::size_t done, std::size_t frames);
 
 }  // namespace hmap::cli

@@ -13,40 +13,16 @@
 #include <string>
 #include <sys/wait.h>
 
+#include "apps/cli_run.hpp"
 #include "common/test_data.hpp"
 #include "hmap/io/hmap_file.hpp"
 
 namespace hmap {
 namespace {
 
-struct CmdResult {
-  int code = -1;
-  std::string out;  // stdout and stderr together
-};
-
-std::string hmap_bin() {
-  const char* bin = std::getenv("HMAP_BIN");
-  return bin != nullptr && *bin != '\0' ? bin : HMAP_BIN_PATH;
-}
-
-CmdResult run(const std::string& args) {
-  CmdResult r;
-  const std::string cmd = hmap_bin() + " " + args + " 2>&1";
-  FILE* pipe = ::popen(cmd.c_str(), "r");
-  if (pipe == nullptr) return r;
-  std::array<char, 4096> buf{};
-  std::size_t n = 0;
-  while ((n = std::fread(buf.data(), 1, buf.size(), pipe)) > 0) r.out.append(buf.data(), n);
-  const int status = ::pclose(pipe);
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
-
-std::size_t lines(const std::string& s) {
-  std::size_t n = 0;
-  for (char c : s) n += c == '\n';
-  return n;
-}
+using test::CmdResult;
+using test::lines;
+using test::run;
 
 class CliTest : public ::testing::Test {
  protected:

@@ -160,6 +160,30 @@ TEST_F(SensorInputsTest, GravityFromAxisRotationAndFloor) {
   EXPECT_FALSE(estimate_floor({}, Eigen::Vector3d::UnitZ()).found);
 }
 
+// office1.pcd: a camera that sees no floor, with a wall 5 m ahead facing it along the prior. The
+// wall is no floor: a plane 5 m from the only sensor is refused. With a floor 1.2 m below the
+// camera (fewer points than the wall) the floor is found; without the sensors, the wall wins.
+TEST(GravityTest, AWallFarAheadIsNotTheFloor) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> s(-2.0, 2.0);
+  std::normal_distribution<double> noise(0.0, 0.005);
+  PointCloud wall;
+  for (int i = 0; i < 4000; ++i) wall.push_back(Eigen::Vector3d(s(rng), s(rng), -5.0 + noise(rng)).cast<float>());
+  const std::vector<Eigen::Vector3d> camera{Eigen::Vector3d::Zero()};
+  EXPECT_TRUE(estimate_floor(wall, Eigen::Vector3d::UnitZ()).found);  // no sensor given: the wall
+  EXPECT_FALSE(estimate_floor(wall, Eigen::Vector3d::UnitZ(), FloorParams{}, camera).found);
+  PointCloud both = wall;
+  for (int i = 0; i < 1500; ++i) both.push_back(Eigen::Vector3d(s(rng), s(rng), -1.2 + noise(rng)).cast<float>());
+  const FloorEstimate floor = estimate_floor(both, Eigen::Vector3d::UnitZ(), FloorParams{}, camera);
+  ASSERT_TRUE(floor.found);
+  EXPECT_NEAR(floor.height, -1.2, 0.01);
+  EXPECT_GE(floor.inliers, 1450U);
+  EXPECT_NEAR(estimate_floor(both, Eigen::Vector3d::UnitZ()).height, -5.0, 0.01);
+  // 2.9 m below a second sensor: near enough.
+  const std::vector<Eigen::Vector3d> two{Eigen::Vector3d::Zero(), Eigen::Vector3d(0.0, 0.0, -2.1)};
+  EXPECT_TRUE(estimate_floor(wall, Eigen::Vector3d::UnitZ(), FloorParams{}, two).found);
+}
+
 // A camera pitched 45 degrees down at a floor 0.7 m below it, read with a scanner's +z as the prior
 // (the kinect_pcd grabber frames): the plane comes out facing away from the camera and is turned.
 // A ceiling above a level scanner keeps the prior's side.

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 
+#include "hmap/core/format.hpp"
 #include "hmap/io/hmap_file.hpp"
 
 #include "common/test_data.hpp"
@@ -191,6 +192,45 @@ TEST_F(CliErrorsTest, LoopsAndAllocationsSizedByAMapAreBounded) {
   expect_refusal({"export", path("tall.hmap"), "--bt", path("tall.bt")}, {"1 HVoxels lie beyond OctoMap's key range (+-8192 m"});
   expect_refusal({"render", path("tall.hmap"), "--view", "oblique", "--z-low", "1e17", "--out", path("t.png")},
                  {"--z-low", "[-100000, 100000]"});
+}
+
+TEST_F(CliErrorsTest, TheMapGrowingBeyondTheBudgetIsRefusedByScan) {
+  // A flat floor of 280 x 280 cells of 0.1 m, seen from 4 poses 100 m apart: each scan adds
+  // 78,400 new cells (about 1.5 MiB of HMAP and 2D grid; the third passes 4 MiB). Refused by scan,
+  // before the next one, and nothing written.
+  std::string floor;
+  for (int i = -140; i < 140; ++i) {
+    for (int j = -140; j < 140; ++j) floor += format("%.2f %.2f -1.5\n", i * 0.1 + 0.05, j * 0.1 + 0.05);
+  }
+  const std::string scan = write("floor.xyz", floor);
+  write("p4.txt", "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 100 0 1 0 0 0 0 1 0\n1 0 0 200 0 1 0 0 0 0 1 0\n1 0 0 300 0 1 0 0 0 0 1 0\n");
+  const std::vector<std::string> scans = {scan, scan, scan, scan, "--poses", path("p4.txt"), "--cell", "0.1", "--max-range", "20",
+                                          "--preset", "outdoor"};
+  const auto with = [&](std::vector<std::string> head, const std::string& out) {
+    head.insert(head.end(), scans.begin(), scans.end());
+    head.insert(head.end(), {"--out", out});
+    return head;
+  };
+  expect_refusal(with({"--max-memory", "4", "map"}, path("m.hmap")),
+                 {"scan 2 (", "floor.xyz", "the map needs 6 MiB, more than the memory budget of 4 MiB", "--max-memory"});
+  EXPECT_FALSE(fs::exists(path("m.hmap")));
+  // compare holds the elevation map of [9] beside: one scan fewer.
+  expect_refusal(with({"--max-memory", "4", "compare", "--skip-octomap"}, path("cmp")),
+                 {"scan 1 (", "floor.xyz", "the comparison needs", "more than the memory budget of 4 MiB"});
+  EXPECT_FALSE(fs::exists(path("cmp")));
+  std::string log;  // the same run within a budget of 16 MiB: mapped
+  EXPECT_EQ(test::run_hmap(with({"--max-memory", "16", "map"}, path("m.hmap")), dir_ / "log", log), 0) << log;
+  // SLAM: one real OS0-64 scan at 1 cm cells already holds 6 MiB.
+  HMAP_REQUIRE_DATA("balm_os0");
+  expect_refusal({"--max-memory", "4", "slam", "--kitti", (test::data_dir() / "balm_os0").string(), "--scans", "2", "--cell", "0.01",
+                  "--max-range", "20", "--out", path("slam")},
+                 {"scan 0 (", "000000.bin", "the map needs", "more than the memory budget of 4 MiB"});
+  EXPECT_FALSE(fs::exists(path("slam")));
+}
+
+TEST_F(CliErrorsTest, AFlagValueWithATerminalEscapeIsQuotedNotSent) {
+  // CLI11 quotes the argument it cannot take; the escape is written as \x1B, in one line.
+  expect_refusal({"map", "--cell", "1\x1b[2J", path("good.xyz"), "--out", path("m.hmap")}, {"--cell", "1\\x1B[2J"});
 }
 
 }  // namespace

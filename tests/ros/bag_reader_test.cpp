@@ -60,6 +60,13 @@ class BagReaderTest : public ::testing::Test {
     }
     return "<no exception>";
   }
+  /// The bytes of the small bag the suite writes.
+  static std::string tiny_bag() {
+    std::ifstream in(dir_ / "tiny.bag", std::ios::binary);
+    std::stringstream buffer;
+    buffer << in.rdbuf();
+    return buffer.str();
+  }
   static inline fs::path dir_;
   static inline bool made_ = false;
 };
@@ -165,10 +172,7 @@ TEST_F(BagReaderTest, CloudWithoutPoseIsOneLineNamingTopicAndStamp) {
 }
 
 TEST_F(BagReaderTest, DamagedBagsGiveInputErrors) {
-  std::ifstream in(dir_ / "tiny.bag", std::ios::binary);
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  const std::string bytes = buffer.str();
+  const std::string bytes = tiny_bag();
   const fs::path path = dir_ / "damaged.bag";
   const auto try_read = [&](const std::string& content, const std::string& what) {
     std::ofstream(path, std::ios::binary).write(content.data(), static_cast<std::streamsize>(content.size()));
@@ -194,6 +198,26 @@ TEST_F(BagReaderTest, DamagedBagsGiveInputErrors) {
     for (int k = 0; k < 1 + trial % 4; ++k) damaged[position(rng)] = static_cast<char>(byte(rng));
     try_read(damaged, "damage trial " + std::to_string(trial));
   }
+}
+
+TEST_F(BagReaderTest, ACutOffBagSaysHowToRecoverIt) {
+  // A recorder killed mid-write leaves the chunks before the cut, and no index: every cut of the
+  // bag's second half is refused by name and position, with rosbag's tool for it.
+  const std::string bytes = tiny_bag();
+  const fs::path path = dir_ / "cut.bag";
+  for (const double share : {0.5, 0.75, 0.99}) {
+    const std::string cut = bytes.substr(0, static_cast<std::size_t>(share * static_cast<double>(bytes.size())));
+    std::ofstream(path, std::ios::binary).write(cut.data(), static_cast<std::streamsize>(cut.size()));
+    const std::string message = error_of([&] { (void)ros::read_bag_info(path); });
+    EXPECT_NE(message.find(path.string()), std::string::npos) << message;
+    EXPECT_NE(message.find("rosbag reindex " + path.string()), std::string::npos) << share << ": " << message;
+    EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+  }
+  // Damage inside the file is not a cut: no such advice.
+  std::string damaged = bytes;
+  damaged.replace(0, 13, "#ROSBAG V9.9\n");
+  std::ofstream(path, std::ios::binary).write(damaged.data(), static_cast<std::streamsize>(damaged.size()));
+  EXPECT_EQ(error_of([&] { (void)ros::read_bag_info(path); }).find("reindex"), std::string::npos);
 }
 
 TEST(PointCloud2Decode, LayoutChecks) {

@@ -9,6 +9,7 @@
 #include <string>
 #include <utility>
 
+#include "hmap/core/checked.hpp"
 #include "hmap/core/error.hpp"
 
 namespace hmap {
@@ -60,7 +61,8 @@ ElevationMapper::ElevationMapper(ElevationMap map, const ElevationParams& elevat
     : map_(std::move(map)), elevation_(elevation) {
   validate(elevation_);
   const MapParams& mp = map_.params().map;
-  window_.half = static_cast<std::int32_t>(std::ceil(mp.max_range / mp.cell_size)) + 1;
+  // validate() keeps max_range / cell_size <= 2048.
+  window_.half = checked_count<std::int32_t>(mp.max_range / mp.cell_size, 1 << 20, "the scan window") + 1;
   window_.width = 2 * window_.half + 1;
   bins_.assign(window_.cells(), Bin{0.0F, 0.0F, 0.0F, 0});
 }
@@ -75,7 +77,7 @@ ElevationScanStats ElevationMapper::integrate(std::span<const Point3f> points_se
   if (!(std::abs(ci) + window_.half < ElevationMap::kMaxKey && std::abs(cj) + window_.half < ElevationMap::kMaxKey)) {
     throw Error("scan pose is too far from the map origin (beyond 2^30 cells)");
   }
-  window_.center = {static_cast<std::int32_t>(ci), static_cast<std::int32_t>(cj)};
+  window_.center = {checked_floor<std::int32_t>(ci, "the scan origin's cell"), checked_floor<std::int32_t>(cj, "the scan origin's cell")};
 
   ElevationScanStats stats;
   stats.points_in = points_sensor.size();
@@ -111,10 +113,11 @@ ElevationScanStats ElevationMapper::integrate(std::span<const Point3f> points_se
         continue;
       }
       // The HMAP's keys: floor(x / cell), not x times 1 / cell, which can round across a border.
-      const CellKey key{static_cast<std::int32_t>(std::floor(p_map.x() / cell)),
-                        static_cast<std::int32_t>(std::floor(p_map.y() / cell))};
-      // Outside the window only through rounding at the range limit, as in Mapper.
-      point_window_[k] = window_.contains(key) ? static_cast<std::uint32_t>(window_.index(key)) : kOutOfRange;
+      const std::optional<std::int32_t> i = floor_to<std::int32_t>(p_map.x() / cell);
+      const std::optional<std::int32_t> j = floor_to<std::int32_t>(p_map.y() / cell);
+      // Outside the window only through rounding at the range limit, as in Mapper, or a pose
+      // whose linear part is not a rotation (beyond an int32_t: nothing, no overflowing cast).
+      point_window_[k] = i && j && window_.contains(CellKey{*i, *j}) ? static_cast<std::uint32_t>(window_.index(CellKey{*i, *j})) : kOutOfRange;
       point_z_[k] = static_cast<float>(p_map.z());
       point_r2_[k] = r2;
     }

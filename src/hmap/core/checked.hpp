@@ -31,6 +31,16 @@ template <typename Int>
   return floor_to<Int>(std::ceil(v));
 }
 
+/// `v` rounded toward negative infinity as an Int; hmap::Error saying `what` it is otherwise. For
+/// values a check before has bounded (a pose within 10^9 cells), once per scan, not per point:
+/// inner loops use floor_to and drop what it refuses.
+template <typename Int>
+[[nodiscard]] Int checked_floor(double v, const char* what) {
+  const std::optional<Int> n = floor_to<Int>(v);
+  if (!n) throw Error(std::string(what) + " " + format("%.6g", v) + " does not fit a " + std::to_string(std::numeric_limits<Int>::digits + (std::numeric_limits<Int>::is_signed ? 1 : 0)) + "-bit integer");
+  return *n;
+}
+
 /// `v` rounded up as an Int in [0, limit]; hmap::Error saying `what` it counts otherwise
 /// ("the coarse search in yaw needs 2e+12 steps, at most 64").
 template <typename Int>

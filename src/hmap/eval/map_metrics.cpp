@@ -11,6 +11,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "hmap/core/checked.hpp"
 #include "hmap/core/error.hpp"
 
 namespace hmap {
@@ -33,7 +34,8 @@ using TruthColumns = std::unordered_map<CellKey, std::vector<ZIndex>, CellKeyHas
 
 /// Index l of the vertical voxel [l·h, (l+1)·h) holding z.
 ZIndex z_index(double z, double voxel_height) {
-  return static_cast<ZIndex>(std::clamp(std::floor(z / voxel_height), -kMaxZIndex, kMaxZIndex));
+  // Clamped first (a height of 3e38 m is the top voxel), so only NaN is refused.
+  return checked_floor<ZIndex>(std::clamp(std::floor(z / voxel_height), -kMaxZIndex, kMaxZIndex), "map evaluation: the voxel of height");
 }
 
 /// Sorts the ranges and unites those that overlap or touch.
@@ -271,7 +273,7 @@ RecoveredPoints recover_points_capped(const HMap& map, double z_step, std::size_
       // Same samples as recover_points: z_min + k·z_step for k = 0..⌊h/z_step⌋, then z_max if missed.
       const double steps = std::floor(h / z_step);
       if (steps + 2.0 <= cap) {
-        const auto last = static_cast<long>(steps);
+        const long last = checked_count<long>(steps, static_cast<long>(std::min<std::size_t>(max_points_per_hvoxel, std::numeric_limits<long>::max())), "an HVoxel's samples");
         for (long k = 0; k <= last; ++k) {
           out.points_map.emplace_back(x, y, static_cast<float>(v.z_min + static_cast<double>(k) * z_step));
         }

@@ -337,12 +337,16 @@ class PatchExplorer {
       // among equals. The cells nearest to a sensor-mounted hint lie on the innermost scan ring
       // (a thin arc no plane can be fitted to); the best-covered ones make a root that fits.
       const double s = map_.cell_size();
+      // The bin's cells are cells of the map: HMap::key_of holds them (its keys lie within ±2^30).
       const auto key_of = [&](const Eigen::Vector2d& xy) {
-        return CellKey{static_cast<std::int32_t>(std::floor(xy.x() / s)), static_cast<std::int32_t>(std::floor(xy.y() / s))};
+        const std::optional<CellKey> key = map_.key_of(xy.x(), xy.y());
+        if (!key) throw Error("ground patches: a seed cell lies beyond the map's key range");
+        return *key;
       };
       std::unordered_set<CellKey, CellKeyHash> in_bin;
       for (const Eigen::Vector2d& xy : best->cells) in_bin.insert(key_of(xy));
-      const auto reach = static_cast<std::int32_t>(std::floor(window_ / s));
+      // window_ is ground.window_size, ranged; floor(window / cell) a few cells.
+      const auto reach = checked_count<std::int32_t>(std::floor(window_ / s), 1 << 10, "the ground seed's window");
       std::vector<std::pair<int, double>> score(best->cells.size());  // (cells of the bin around, distance²)
       for (std::size_t c = 0; c < best->cells.size(); ++c) {
         const CellKey k = key_of(best->cells[c]);

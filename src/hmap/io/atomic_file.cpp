@@ -1,6 +1,7 @@
 #include "hmap/io/atomic_file.hpp"
 
 #include <fcntl.h>
+#include <fnmatch.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -11,6 +12,7 @@
 #include <random>
 #include <streambuf>
 #include <string>
+#include <vector>
 
 #include "hmap/core/error.hpp"
 
@@ -129,7 +131,11 @@ void check_output_folder(const std::filesystem::path& dir, const std::filesystem
   }
 }
 
-void write_file_atomic(const std::filesystem::path& path, const std::function<void(std::ostream&)>& writer) {
+namespace {
+
+/// Writes `writer`'s bytes to a new temporary file beside `path`, fsyncs and closes it, and
+/// returns its name; `path` itself is not touched. On failure nothing is left behind.
+std::filesystem::path write_temporary(const std::filesystem::path& path, const std::function<void(std::ostream&)>& writer) {
   if (path.filename().empty()) throw Error(path.string() + ": not a file name");
   const std::filesystem::path temporary = temporary_path_for(path);
 
@@ -144,12 +150,6 @@ void write_file_atomic(const std::filesystem::path& path, const std::function<vo
   if (replacing) ::fchmod(fd, existing.st_mode & 07777);
 
   bool fd_open = true;
-  const auto discard = [&] {
-    if (fd_open) ::close(fd);
-    fd_open = false;
-    ::unlink(temporary.c_str());
-  };
-
   try {
     FdStreambuf buffer(fd);
     std::ostream out(&buffer);
@@ -168,12 +168,74 @@ void write_file_atomic(const std::filesystem::path& path, const std::function<vo
     if (::fsync(fd) != 0) fail(path, "cannot fsync", errno);
     fd_open = false;
     if (::close(fd) != 0) fail(path, "cannot close", errno);
-    if (::rename(temporary.c_str(), path.c_str()) != 0) fail(path, "cannot rename into place", errno);
+  } catch (...) {
+    if (fd_open) ::close(fd);
+    ::unlink(temporary.c_str());
+    throw;
+  }
+  return temporary;
+}
+
+std::function<void(std::ostream&)> bytes_writer(std::string_view bytes) {
+  return [bytes](std::ostream& out) { out.write(bytes.data(), static_cast<std::streamsize>(bytes.size())); };
+}
+
+/// The folder an output path names, absolute and without a trailing separator (`out/` and
+/// `out/.` are `out`), so that its parent and name are those of the folder itself.
+std::filesystem::path folder_path(const std::filesystem::path& out) {
+  std::filesystem::path p = std::filesystem::absolute(out).lexically_normal();
+  if (p.filename().empty() && p.has_parent_path() && p != p.root_path()) p = p.parent_path();
+  if (p == p.root_path() || p.filename().empty() || p.filename() == "..") {
+    throw Error(out.string() + ": cannot be replaced as an output folder; give a folder of its own");
+  }
+  return p;
+}
+
+}  // namespace
+
+void write_file_atomic(const std::filesystem::path& path, const std::function<void(std::ostream&)>& writer) {
+  const std::filesystem::path temporary = write_temporary(path, writer);
+  if (::rename(temporary.c_str(), path.c_str()) != 0) {
+    const int error = errno;
+    ::unlink(temporary.c_str());
+    fail(path, "cannot rename into place", error);
+  }
+  sync_directory(path.parent_path());
+}
+
+void write_files_with_record(std::initializer_list<std::pair<std::filesystem::path, std::string_view>> files,
+                             const std::filesystem::path& record, std::string_view record_bytes) {
+  std::vector<std::pair<std::filesystem::path, std::filesystem::path>> pending;  // temporary, target
+  const auto discard = [&pending] {
+    for (const auto& [temporary, target] : pending) ::unlink(temporary.c_str());
+  };
+  try {
+    for (const auto& [path, bytes] : files) pending.emplace_back(write_temporary(path, bytes_writer(bytes)), path);
+    pending.emplace_back(write_temporary(record, bytes_writer(record_bytes)), record);
   } catch (...) {
     discard();
     throw;
   }
-  sync_directory(path.parent_path());
+  // Commit: the old record goes first (durably), the record comes back last.
+  if (::unlink(record.c_str()) != 0 && errno != ENOENT) {
+    const int error = errno;
+    discard();
+    fail(record, "cannot remove the old file", error);
+  }
+  sync_directory(record.parent_path());
+  for (std::size_t i = 0; i < pending.size(); ++i) {
+    if (i + 1 == pending.size()) {
+      // Every file durably in place before the record appears, even across a power loss.
+      for (const auto& [path, bytes] : files) sync_directory(path.parent_path());
+    }
+    const auto& [temporary, target] = pending[i];
+    if (::rename(temporary.c_str(), target.c_str()) != 0) {
+      const int error = errno;
+      for (std::size_t j = i; j < pending.size(); ++j) ::unlink(pending[j].first.c_str());
+      fail(target, "cannot rename into place", error);
+    }
+  }
+  sync_directory(record.parent_path());
 }
 
 std::filesystem::path make_staging_folder(const std::filesystem::path& target) {
@@ -203,10 +265,47 @@ void replace_folder_atomic(const std::filesystem::path& staging, const std::file
   sync_directory(target.parent_path());
 }
 
-void write_file_atomic(const std::filesystem::path& path, std::string_view bytes) {
-  write_file_atomic(path, [bytes](std::ostream& out) {
-    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-  });
+void check_output_set_folder(const std::filesystem::path& out_in, std::initializer_list<std::string_view> owned,
+                             std::string_view command) {
+  const std::filesystem::path out = folder_path(out_in);
+  struct stat st {};
+  if (::lstat(out.c_str(), &st) != 0) {
+    check_output_folder(out.parent_path(), out_in);
+    return;
+  }
+  if (!S_ISDIR(st.st_mode)) throw Error(out_in.string() + ": the output folder is not a folder");
+  check_output_folder(out.parent_path(), out_in);
+  for (const auto& entry : std::filesystem::directory_iterator(out)) {
+    const std::string name = entry.path().filename().string();
+    const bool folder = entry.is_directory() && !entry.is_symlink();
+    bool ours = false;
+    for (std::string_view pattern : owned) {
+      const bool names_folder = pattern.ends_with('/');
+      if (names_folder) pattern.remove_suffix(1);
+      if (::fnmatch(std::string(pattern).c_str(), name.c_str(), FNM_PERIOD) != 0) continue;
+      ours = names_folder ? folder : entry.is_regular_file() && !entry.is_symlink();
+      break;
+    }
+    if (!ours) {
+      throw Error(out_in.string() + ": holds '" + name + "', which hmap " + std::string(command) +
+                  " does not write; the folder is replaced as a whole, so give a new one");
+    }
+  }
 }
+
+void write_folder_atomic(const std::filesystem::path& out_in, const std::function<void(const std::filesystem::path& dir)>& writer) {
+  const std::filesystem::path out = folder_path(out_in);
+  const std::filesystem::path staging = make_staging_folder(out);
+  try {
+    writer(staging);
+  } catch (...) {
+    std::error_code ignored;
+    std::filesystem::remove_all(staging, ignored);
+    throw;
+  }
+  replace_folder_atomic(staging, out);
+}
+
+void write_file_atomic(const std::filesystem::path& path, std::string_view bytes) { write_file_atomic(path, bytes_writer(bytes)); }
 
 }  // namespace hmap

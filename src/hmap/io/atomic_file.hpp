@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <functional>
+#include <initializer_list>
 #include <ostream>
 #include <string_view>
 
@@ -32,6 +33,29 @@ void check_output_folder(const std::filesystem::path& dir, const std::filesystem
 /// `staging`) is removed. A kill at any moment leaves at `target` the whole old set or the whole
 /// new one, never a new file beside an old one (a killed run leaves its staging folder behind).
 void replace_folder_atomic(const std::filesystem::path& staging, const std::filesystem::path& target);
+
+/// Throws hmap::Error unless the folder `out` can be replaced as a whole by a set that `command`
+/// writes (write_folder_atomic): `out` does not exist and its parent is a writable folder, or it is
+/// a folder holding only entries that `command` writes. `owned` lists them as fnmatch patterns
+/// ("poses.txt", "rbf_*"); one ending in '/' names a folder ("velodyne/"), the others regular
+/// files. Anything else in `out` (a user's own file) is refused by name, before the work.
+void check_output_set_folder(const std::filesystem::path& out, std::initializer_list<std::string_view> owned,
+                             std::string_view command);
+
+/// Writes a set of files as one: `writer` fills a new staging folder beside `out`
+/// (make_staging_folder), which then replaces `out` (replace_folder_atomic). If `writer` throws,
+/// the staging folder is removed and `out` is left as it was.
+void write_folder_atomic(const std::filesystem::path& out, const std::function<void(const std::filesystem::path& dir)>& writer);
+
+/// Writes files that belong together and a `record` naming them (an image and the YAML that
+/// gives its resolution and origin) so that whenever `record` exists, it and every file of
+/// `files` are the ones written together. All are first written to temporary files (fsynced);
+/// then the old record is removed, the files are renamed into place, and the record last. A kill
+/// at any moment leaves the old set, the new set, or the files without their record (a reader of
+/// the record then finds none and fails, instead of reading a new image with an old origin);
+/// never a record beside files it was not written with.
+void write_files_with_record(std::initializer_list<std::pair<std::filesystem::path, std::string_view>> files,
+                             const std::filesystem::path& record, std::string_view record_bytes);
 
 /// Atomically replaces `path` with `bytes`.
 void write_file_atomic(const std::filesystem::path& path, std::string_view bytes);

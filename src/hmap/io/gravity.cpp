@@ -1,6 +1,7 @@
 #include "hmap/io/gravity.hpp"
 
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <random>
@@ -58,7 +59,7 @@ Pose gravity_rotation(const Eigen::Vector3d& up_world) {
 }
 
 FloorEstimate estimate_floor(std::span<const Point3f> points_world, const Eigen::Vector3d& prior_up_world,
-                             const FloorParams& params) {
+                             const FloorParams& params, std::span<const Eigen::Vector3d> sensors_world) {
   FloorEstimate best;
   best.points = points_world.size();
   if (points_world.size() < 3 || !(prior_up_world.norm() > 0.0)) return best;
@@ -69,6 +70,11 @@ FloorEstimate estimate_floor(std::span<const Point3f> points_world, const Eigen:
   Eigen::Vector3d best_n = prior;
   double best_d = 0.0;
   std::size_t best_count = 0;
+  const auto near_a_sensor = [&](const Eigen::Vector3d& n, double d) {
+    if (sensors_world.empty()) return true;
+    return std::any_of(sensors_world.begin(), sensors_world.end(),
+                       [&](const Eigen::Vector3d& s) { return std::abs(n.dot(s) - d) <= params.max_sensor_distance; });
+  };
   const auto count_inliers = [&](const Eigen::Vector3d& n, double d) {
     std::size_t count = 0;
     for (const auto& p : points_world) count += std::abs(n.dot(p.cast<double>()) - d) <= params.inlier_distance ? 1U : 0U;
@@ -84,6 +90,7 @@ FloorEstimate estimate_floor(std::span<const Point3f> points_world, const Eigen:
     if (n.dot(prior) < 0.0) n = -n;
     if (n.dot(prior) < min_cos) continue;
     const double d = n.dot(a);
+    if (!near_a_sensor(n, d)) continue;
     const std::size_t count = count_inliers(n, d);
     if (count > best_count) {
       best_count = count;

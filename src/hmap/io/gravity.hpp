@@ -28,6 +28,10 @@ struct FloorParams {
   double max_tilt = 0.6;          ///< [rad] planes tilted more than this from the prior up are not floors (~34°)
   std::uint32_t seed = 1;         ///< fixed: the same estimate every run
   double min_inlier_fraction = 0.05;  ///< fewer supporting points than this fraction: no floor found
+  /// [m] with sensor positions given, a plane farther than this from every one of them is not the
+  /// floor under them but a wall or a table top across the room (office1.pcd: a wall 5 m ahead of a
+  /// camera that sees no floor). A hand-held camera, a robot or a car roof is within 3 m of its floor.
+  double max_sensor_distance = 3.0;
 };
 
 struct FloorEstimate {
@@ -40,9 +44,11 @@ struct FloorEstimate {
 
 /// The dominant floor: the plane with the most points within `inlier_distance` among those whose
 /// normal is within `max_tilt` of `prior_up_world` (for a hand-held or robot camera, the mean of
-/// the cameras' up vectors −y_cam), refined by least squares over its supporting points.
+/// the cameras' up vectors −y_cam) and, when `sensors_world` is not empty, that lie within
+/// `max_sensor_distance` of one of the sensors; refined by least squares over its supporting points.
 [[nodiscard]] FloorEstimate estimate_floor(std::span<const Point3f> points_world, const Eigen::Vector3d& prior_up_world,
-                                           const FloorParams& params = {});
+                                           const FloorParams& params = {},
+                                           std::span<const Eigen::Vector3d> sensors_world = {});
 
 /// A floor is seen from above. When every sensor position lies below the estimated plane and its
 /// normal is more than `min_tilt` [rad] from the prior up, the prior chose the wrong side: the

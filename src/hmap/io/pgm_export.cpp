@@ -107,7 +107,6 @@ void write_pgm_map(const std::filesystem::path& stem_in, const OccupancyGrid& gr
   header << "P5\n# hmap 2D occupancy, " << grid.cell_size() << " m per pixel\n" << width << " " << height << "\n255\n";
   std::string bytes = header.str();
   bytes.append(reinterpret_cast<const char*>(pixels.data()), pixels.size());
-  write_file_atomic(pgm, bytes);
   std::ostringstream y;
   y << "image: " << pgm.filename().string() << "\n"
     << "mode: trinary\n"
@@ -117,7 +116,9 @@ void write_pgm_map(const std::filesystem::path& stem_in, const OccupancyGrid& gr
     << "negate: 0\n"
     << "occupied_thresh: " << shortest(params.occupied_thresh) << "\n"
     << "free_thresh: " << shortest(params.free_thresh) << "\n";
-  write_file_atomic(yaml, y.str());
+  // The YAML says where the image lies: it is the pair's record, removed first and written last,
+  // so that a killed export never leaves an old origin beside a new image.
+  write_files_with_record({{pgm, bytes}}, yaml, y.str());
 }
 
 void write_costmap_pgm(const std::filesystem::path& stem_in, const TraversabilityLayers& layers) {
@@ -142,7 +143,6 @@ void write_costmap_pgm(const std::filesystem::path& stem_in, const Traversabilit
          << height << "\n255\n";
   std::string bytes = header.str();
   bytes.append(reinterpret_cast<const char*>(pixels.data()), pixels.size());
-  write_file_atomic(pgm, bytes);
   std::ostringstream y;
   y << "# hmap traversability costmap: map_server's scale mode reads back the cost 0..100; unknown cells are lethal\n"
     << "image: " << pgm.filename().string() << "\n"
@@ -153,7 +153,9 @@ void write_costmap_pgm(const std::filesystem::path& stem_in, const Traversabilit
     << "negate: 0\n"
     << "occupied_thresh: 0.995\n"
     << "free_thresh: 0.005\n";
-  write_file_atomic(yaml, y.str());
+  // The YAML says where the image lies: it is the pair's record, removed first and written last,
+  // so that a killed export never leaves an old origin beside a new image.
+  write_files_with_record({{pgm, bytes}}, yaml, y.str());
 }
 
 }  // namespace hmap

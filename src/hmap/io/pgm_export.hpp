@@ -21,7 +21,8 @@ struct PgmExportParams {
 
 /// Writes `stem`.pgm (binary P5, the first row the northernmost, one pixel per cell over the
 /// observed cells' bounding box) and `stem`.yaml (image, mode trinary, resolution, origin of the
-/// lower-left pixel, negate 0, occupied_thresh, free_thresh), both atomically. `stem` may end in
+/// lower-left pixel, negate 0, occupied_thresh, free_thresh) as one set (write_files_with_record:
+/// whenever the .yaml exists, the .pgm beside it is the one written with it). `stem` may end in
 /// .pgm or .yaml, or have no extension. Throws hmap::Error for an empty grid.
 void write_pgm_map(const std::filesystem::path& stem, const OccupancyGrid& grid, const PgmExportParams& params = {});
 
@@ -29,7 +30,7 @@ void write_pgm_map(const std::filesystem::path& stem, const OccupancyGrid& grid,
 /// cost) (negate 0, so map_server reads p = cost / 100) and `stem`.yaml with mode: scale,
 /// occupied_thresh 0.995, free_thresh 0.005, so map_server's scale mode gives back the cost:
 /// 0 → 0 (free), 100 → 100 (lethal), between 1..99 within one unit. A PGM has no alpha channel,
-/// so unknown cells are written lethal (the YAML says so). Throws hmap::Error for empty layers.
+/// so unknown cells are written lethal (the YAML says so). Written as one set, as write_pgm_map. Throws hmap::Error for empty layers.
 void write_costmap_pgm(const std::filesystem::path& stem, const TraversabilityLayers& layers);
 
 /// `index` · `cell` as the shortest exact decimal of the product of the integer and the shortest

@@ -7,6 +7,7 @@
 
 #include <tbb/parallel_invoke.h>
 
+#include "hmap/core/checked.hpp"
 #include "hmap/maps/ray_trace.hpp"
 
 namespace hmap {
@@ -60,7 +61,8 @@ void FreeCell::add_slow(float lo, float hi, float rays, float unite_gap, float j
 }
 
 FreeSpaceTracer::FreeSpaceTracer(const MapParams& params) : params_(params) {
-  const auto half = static_cast<std::int32_t>(std::ceil(params_.max_range / params_.cell_size)) + 1;
+  // validate() keeps max_range / cell_size <= 2048; the same window as ScanHVoxelizer's.
+  const auto half = checked_count<std::int32_t>(params_.max_range / params_.cell_size, 1 << 20, "the scan window") + 1;
   for (auto& q : quadrants_) q.slot_of_window.assign(static_cast<std::size_t>(2 * half + 1) * (2 * half + 1), 0);
 }
 
@@ -147,7 +149,7 @@ void FreeSpaceTracer::Accumulator::trace(const ScanHVoxels& scan, const MapParam
     const double gy0 = ys / cell;
     const double dx = target.key.i + 0.5 - gx0;
     const double dy = target.key.j + 0.5 - gy0;
-    const CellKey start{static_cast<std::int32_t>(std::floor(gx0)), static_cast<std::int32_t>(std::floor(gy0))};
+    const CellKey start = scan.window.center;  // floor(gx0), floor(gy0): cast once per scan, checked
     const double length_cells = std::sqrt(dx * dx + dy * dy);
     constexpr double kInf = std::numeric_limits<double>::infinity();
     const long step_i = dx > 0 ? 1 : -1;

@@ -52,11 +52,16 @@ void HMap::prune_empty_tiles() {
   });
 }
 
+std::size_t HMap::memory_bytes() const {
+  std::size_t bytes = tiles_.table_bytes() + tiles_.size() * sizeof(Tile);
+  tiles_.for_each([&](const CellKey&, const Tile& tile) { bytes += tile.heap_bytes(); });
+  return bytes;
+}
+
 MapStats HMap::stats() const {
   MapStats s;
   s.tiles = tiles_.size();
-  s.memory_bytes = tiles_.table_bytes() + tiles_.size() * sizeof(Tile);
-  tiles_.for_each([&](const CellKey&, const Tile& tile) { s.memory_bytes += tile.heap_bytes(); });
+  s.memory_bytes = memory_bytes();
   for_each_column([&](const CellKey& key, const ColumnView& c) {
     ++s.cells;
     s.hvoxels += c.size();

@@ -71,6 +71,9 @@ class HMap {
   }
 
   [[nodiscard]] MapStats stats() const;
+  /// stats().memory_bytes without walking the columns: O(tiles), cheap enough to check the map
+  /// against a memory budget after every scan.
+  [[nodiscard]] std::size_t memory_bytes() const;
   [[nodiscard]] bool empty() const;
   void clear() { tiles_.clear(); }
 

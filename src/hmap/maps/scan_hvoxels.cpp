@@ -7,6 +7,7 @@
 #include <array>
 #include <cmath>
 
+#include "hmap/core/checked.hpp"
 #include "hmap/core/error.hpp"
 
 namespace hmap {
@@ -16,7 +17,8 @@ constexpr std::ptrdiff_t kRankSortMax = 8;
 }  // namespace
 
 ScanHVoxelizer::ScanHVoxelizer(const MapParams& params) : params_(params) {
-  window_.half = static_cast<std::int32_t>(std::ceil(params_.max_range / params_.cell_size)) + 1;
+  // validate() keeps max_range / cell_size <= 2048.
+  window_.half = checked_count<std::int32_t>(params_.max_range / params_.cell_size, 1 << 20, "the scan window") + 1;
   window_.width = 2 * window_.half + 1;
   cell_of_window_.assign(window_.cells(), 0);
 }
@@ -45,8 +47,8 @@ void ScanHVoxelizer::index_points(std::span<const Point3f> points_sensor, const 
   if (!(std::abs(origin.x() / cell) <= 1e9) || !(std::abs(origin.y() / cell) <= 1e9)) {
     throw Error("scan pose is too far from the map origin (beyond 10^9 cells)");
   }
-  window_.center = {static_cast<std::int32_t>(std::floor(origin.x() / cell)),
-                    static_cast<std::int32_t>(std::floor(origin.y() / cell))};
+  window_.center = {checked_floor<std::int32_t>(origin.x() / cell, "the scan origin's cell"),
+                    checked_floor<std::int32_t>(origin.y() / cell, "the scan origin's cell")};
   out.window = window_;
   const Eigen::Matrix3d R = T_map_sensor.linear();
   const auto min_r2 = static_cast<float>(params_.min_range * params_.min_range);
@@ -72,15 +74,16 @@ void ScanHVoxelizer::index_points(std::span<const Point3f> points_sensor, const 
       }
       // 2D indexing in the gravity-aligned map frame (convertToMapIndex, withinMapBounds).
       const Eigen::Vector3d p_map = R * p_sensor.cast<double>() + origin;
-      const double fi = std::floor(p_map.x() / cell);
-      const double fj = std::floor(p_map.y() / cell);
+      const std::optional<std::int32_t> i = floor_to<std::int32_t>(p_map.x() / cell);
+      const std::optional<std::int32_t> j = floor_to<std::int32_t>(p_map.y() / cell);
       // Outside the window only through float rounding at the range limit, or a pose whose
-      // linear part is not a rotation; tested before the cast, which would overflow far out.
-      if (!(std::abs(fi - window_.center.i) <= window_.half && std::abs(fj - window_.center.j) <= window_.half)) {
+      // linear part is not a rotation (far out, beyond an int32_t: nothing).
+      if (!i || !j || std::abs(std::int64_t{*i} - window_.center.i) > window_.half ||
+          std::abs(std::int64_t{*j} - window_.center.j) > window_.half) {
         point_window_[k] = kOutOfRange;
         continue;
       }
-      const CellKey key{static_cast<std::int32_t>(fi), static_cast<std::int32_t>(fj)};
+      const CellKey key{*i, *j};
       point_window_[k] = static_cast<std::uint32_t>(window_.index(key));
       point_z_[k] = static_cast<float>(p_map.z());
     }

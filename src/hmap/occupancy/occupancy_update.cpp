@@ -9,6 +9,7 @@
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
+#include "hmap/core/checked.hpp"
 #include "hmap/maps/ray_trace.hpp"
 
 namespace hmap {
@@ -92,7 +93,8 @@ void OccupancyUpdater::index_patches(const ScanWindow& window, const std::vector
   double max_half = 0.0;
   for (const GroundPatch& p : patches) max_half = std::max(max_half, p.half_size);
   const double rim = std::ceil(std::sqrt(2.0) * (params_.occupancy.ground_reach + max_half + 1.5 * cell) / bucket);
-  bucket_rim_ = rim <= kMaxBucketRim ? static_cast<std::int32_t>(rim) : -1;  // huge patches: the kd-tree
+  const std::optional<std::int32_t> rim_buckets = floor_to<std::int32_t>(rim);  // NaN and 1e300 patches: nothing
+  bucket_rim_ = rim_buckets && *rim_buckets <= kMaxBucketRim ? *rim_buckets : -1;  // huge patches: the kd-tree
   bucket_rows_ = 0;
   bucket_cols_ = 0;
   if (bucket_rim_ < 0) return;
@@ -106,11 +108,11 @@ void OccupancyUpdater::index_patches(const ScanWindow& window, const std::vector
   std::int32_t b_min = a_min, b_max = a_max;
   patch_bucket_.resize(patches.size());
   for (std::size_t k = 0; k < patches.size(); ++k) {
-    const double fa = std::floor((patches[k].center.x() - x0) / bucket);
-    const double fb = std::floor((patches[k].center.y() - y0) / bucket);
+    const std::optional<std::int32_t> fa = floor_to<std::int32_t>((patches[k].center.x() - x0) / bucket);
+    const std::optional<std::int32_t> fb = floor_to<std::int32_t>((patches[k].center.y() - y0) / bucket);
     patch_bucket_[k] = {std::numeric_limits<std::int32_t>::min(), 0};
-    if (!(fa >= lo && fb >= lo && fa < hi && fb < hi)) continue;  // NaN too
-    patch_bucket_[k] = {static_cast<std::int32_t>(fa), static_cast<std::int32_t>(fb)};
+    if (!fa || !fb || !(*fa >= lo && *fb >= lo && *fa < hi && *fb < hi)) continue;  // NaN and far ones too
+    patch_bucket_[k] = {*fa, *fb};
     a_min = std::min(a_min, patch_bucket_[k].first);
     a_max = std::max(a_max, patch_bucket_[k].first);
     b_min = std::min(b_min, patch_bucket_[k].second);
@@ -283,7 +285,8 @@ OccupancyUpdateStats OccupancyUpdater::update(const ScanHVoxels& scan, const Gro
   // The square around the sensor's cell holding every scan cell: each ray lies inside it. Taken
   // from the cells rather than scan.window, so hand-made scans work too.
   ScanWindow window;
-  window.center = {static_cast<std::int32_t>(std::floor(xs / cell)), static_cast<std::int32_t>(std::floor(ys / cell))};
+  window.center = {checked_floor<std::int32_t>(xs / cell, "the scan origin's cell"),
+                   checked_floor<std::int32_t>(ys / cell, "the scan origin's cell")};
   for (const ScanCell& c : scan.cells) {
     window.half = std::max({window.half, std::abs(c.key.i - window.center.i), std::abs(c.key.j - window.center.j)});
   }

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "hmap/core/checked.hpp"
 #include "hmap/core/error.hpp"
 #include "hmap/core/format.hpp"
 
@@ -107,8 +108,15 @@ VoxelMap& VoxelMap::operator=(const VoxelMap& other) {
 }
 
 VoxelKey VoxelMap::key_of(const Eigen::Vector3d& p) const {
-  return {static_cast<std::int32_t>(std::floor(p.x() * inv_edge_)), static_cast<std::int32_t>(std::floor(p.y() * inv_edge_)),
-          static_cast<std::int32_t>(std::floor(p.z() * inv_edge_))};
+  const std::optional<std::int32_t> i = floor_to<std::int32_t>(p.x() * inv_edge_);
+  const std::optional<std::int32_t> j = floor_to<std::int32_t>(p.y() * inv_edge_);
+  const std::optional<std::int32_t> k = floor_to<std::int32_t>(p.z() * inv_edge_);
+  // insert() checks its points against kMaxIndex first, so this throws only for a caller's own
+  // point beyond the key range, never in the loop over a scan.
+  if (!i || !j || !k) {
+    throw Error(format("pvox: the point (%g, %g, %g) m is beyond the voxel key range at edge %g m", p.x(), p.y(), p.z(), edge_));
+  }
+  return {*i, *j, *k};
 }
 
 Eigen::Vector3d VoxelMap::centre(const VoxelKey& key) const {
@@ -273,9 +281,15 @@ FieldSample VoxelMap::field_at(const Eigen::Vector3d& p) const {
   const Eigen::Vector3d u = p * inv_edge_ - Eigen::Vector3d::Constant(0.5);
   const Eigen::Vector3d f = u.array().floor();
   const Eigen::Vector3d t = u - f;
-  const auto i0 = static_cast<std::int32_t>(f.x());
-  const auto j0 = static_cast<std::int32_t>(f.y());
-  const auto k0 = static_cast<std::int32_t>(f.z());
+  // Beyond the key range (and NaN): no voxel around, the unknown field (p 0.5, no gradient).
+  const std::optional<std::int32_t> fi = floor_to<std::int32_t>(f.x());
+  const std::optional<std::int32_t> fj = floor_to<std::int32_t>(f.y());
+  const std::optional<std::int32_t> fk = floor_to<std::int32_t>(f.z());
+  constexpr std::int32_t kLast = std::numeric_limits<std::int32_t>::max();  // i0 + 1 must not overflow
+  if (!fi || !fj || !fk || *fi == kLast || *fj == kLast || *fk == kLast) return FieldSample{};
+  const std::int32_t i0 = *fi;
+  const std::int32_t j0 = *fj;
+  const std::int32_t k0 = *fk;
   double c[2][2][2];
   for (int a = 0; a < 2; ++a) {
     for (int b = 0; b < 2; ++b) {

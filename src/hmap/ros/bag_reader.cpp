@@ -23,6 +23,14 @@ namespace fs = std::filesystem;
 
 namespace {
 
+/// What to do about a bag that ends early (a recorder killed, or stopped by a full disk, before
+/// it wrote the index at the end): rosbag's own tool rebuilds the index from the chunks that are
+/// whole.
+std::string cut_off_hint(const std::string& bag) {
+  return "; the bag looks cut off before its index was written: `rosbag reindex " + bag +
+         "` rebuilds the index from the whole chunks (it keeps a .orig.bag copy), then read the new bag";
+}
+
 /// Runs `f`, turning what rosbag throws (BagException, boost and std errors) into an InputError
 /// naming the bag. Our own errors pass unchanged.
 template <typename F>
@@ -34,7 +42,10 @@ auto guarded(const fs::path& path, F&& f) -> decltype(f()) {
   } catch (const std::bad_alloc&) {
     throw InputError(path.string(), "", "unreadable bag: a record claims more memory than available");
   } catch (const std::exception& e) {
-    throw InputError(path.string(), "", std::string("unreadable bag: ") + e.what());
+    const std::string what = e.what();
+    // rosbag's words for a bag whose recorder never wrote the index (killed, or out of disk).
+    const bool unindexed = what.find("unindexed") != std::string::npos || what.find("Bag unindexed") != std::string::npos;
+    throw InputError(path.string(), "", "unreadable bag: " + what + (unindexed ? cut_off_hint(path.string()) : std::string()));
   }
 }
 
@@ -197,17 +208,19 @@ void check_bag_records(const fs::path& path, BagInfo& info) {
   const auto walk = [&](auto& self, std::size_t begin, std::size_t end, bool top) -> void {
     std::size_t pos = begin;
     while (pos < end) {
-      if (end - pos < 4) throw InputError(source, detail::byte_position(pos), "truncated record");
+      // A record that runs past the end of the file itself: the bag was cut off.
+      const std::string hint = top ? cut_off_hint(source) : std::string();
+      if (end - pos < 4) throw InputError(source, detail::byte_position(pos), "truncated record" + hint);
       const auto header_len = detail::load<std::uint32_t>(bytes.data() + pos, detail::kSwapLittleEndian);
       if (header_len > end - pos - 4 || end - pos - 4 - header_len < 4) {
         throw InputError(source, detail::byte_position(pos), "record header of " + std::to_string(header_len) +
-                                                                 " bytes runs past the end");
+                                                                 " bytes runs past the end" + hint);
       }
       const std::size_t header_at = pos + 4;
       const auto data_len = detail::load<std::uint32_t>(bytes.data() + header_at + header_len, detail::kSwapLittleEndian);
       const std::size_t data_at = header_at + header_len + 4;
       if (data_len > end - data_at) {
-        throw InputError(source, detail::byte_position(pos), "record body of " + std::to_string(data_len) + " bytes runs past the end");
+        throw InputError(source, detail::byte_position(pos), "record body of " + std::to_string(data_len) + " bytes runs past the end" + hint);
       }
       if (top) top_starts.insert(pos);
       else chunk_inner[current_chunk].insert(pos - begin);
@@ -286,7 +299,8 @@ void check_bag_records(const fs::path& path, BagInfo& info) {
   walk(walk, 13, bytes.size(), true);
   for (const auto& [offset, where] : seeks) {
     if (top_starts.count(offset) == 0) {
-      throw InputError(source, detail::byte_position(where), "points to byte " + std::to_string(offset) + ", where no record starts");
+      throw InputError(source, detail::byte_position(where), "points to byte " + std::to_string(offset) + ", where no record starts" +
+                                                                 (offset >= bytes.size() ? cut_off_hint(source) : std::string()));
     }
   }
   // rosbag reads conn_count connection records from index_pos, then chunk_count chunk infos.

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <random>
 
+#include "hmap/core/checked.hpp"
 #include "hmap/core/error.hpp"
 
 namespace hmap::sim {
@@ -21,7 +22,9 @@ ImuSamples simulate_imu(const std::function<Pose(double)>& T_world_sensor_at, do
     return v;
   };
   ImuSamples out;
-  const auto n = static_cast<std::size_t>(std::floor((t1 - t0) * params.rate + 1e-9)) + 1;
+  const auto n = static_cast<std::size_t>(
+                     checked_count<std::int64_t>(std::floor((t1 - t0) * params.rate + 1e-9), std::int64_t{1} << 27, "the IMU samples")) +
+                 1;
   out.reserve(n);
   const Eigen::Matrix3d& R_si = params.R_sensor_imu;
   for (std::size_t k = 0; k < n; ++k) {

@@ -5,6 +5,7 @@
 #include <limits>
 #include <numbers>
 
+#include "hmap/core/checked.hpp"
 #include "hmap/core/error.hpp"
 
 namespace hmap::sim {
@@ -120,8 +121,9 @@ Span span_of(const GroundPatch& g, const Eigen::Vector3d& o_world, const Eigen::
 /// Calls fn(u, v) with one random point in each cell of an n_u × n_v grid over [0, 1]².
 template <typename Fn>
 void stratified(double len_u, double len_v, double spacing, std::mt19937_64& rng, Fn&& fn) {
-  const auto n_u = static_cast<int>(std::max(1.0, std::ceil(len_u / spacing)));
-  const auto n_v = static_cast<int>(std::max(1.0, std::ceil(len_v / spacing)));
+  // Sizes and spacing come from scene files: at most 2^20 samples a side (1e5 m at 0.1 m).
+  const int n_u = checked_count<int>(std::max(1.0, len_u / spacing), 1 << 20, "a surface's samples along one side");
+  const int n_v = checked_count<int>(std::max(1.0, len_v / spacing), 1 << 20, "a surface's samples along one side");
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   for (int i = 0; i < n_u; ++i) {
     for (int j = 0; j < n_v; ++j) {

@@ -4,6 +4,7 @@
 #include <numbers>
 #include <string>
 
+#include "hmap/core/checked.hpp"
 #include "hmap/core/error.hpp"
 
 namespace hmap::sim {
@@ -93,7 +94,7 @@ SpinningLidar::SpinningLidar(SpinningLidarParams params) : params_(std::move(par
         "SpinningLidar: azimuth_step_deg must be in (0, 360]");
   check(params_.range_sigma >= 0.0, "SpinningLidar: range_sigma must not be negative");
   check_ranges("SpinningLidar", params_.min_range, params_.max_range, params_.dropout_probability);
-  const auto columns = static_cast<int>(std::round(360.0 / params_.azimuth_step_deg));
+  const int columns = checked_count<int>(std::round(360.0 / params_.azimuth_step_deg), 1 << 22, "SpinningLidar: the columns of a sweep");
   directions_sensor_.reserve(static_cast<std::size_t>(columns) * params_.elevations_deg.size());
   for (int c = 0; c < columns; ++c) {
     const double azimuth = c * params_.azimuth_step_deg * kDeg;
@@ -199,7 +200,8 @@ LineScanner::LineScanner(LineScannerParams params) : params_(params), rng_(param
   check(params_.line_period >= 0.0 && params_.range_sigma >= 0.0,
         "LineScanner: line_period and range_sigma must not be negative");
   check_ranges("LineScanner", params_.min_range, params_.max_range, params_.dropout_probability);
-  const auto beams = static_cast<int>(std::floor(params_.field_of_view_deg / params_.angular_step_deg + 1e-9)) + 1;
+  const int beams =
+      checked_count<int>(std::floor(params_.field_of_view_deg / params_.angular_step_deg + 1e-9), 1 << 22, "LineScanner: the beams of a line") + 1;
   for (int k = 0; k < params_.sweep_steps; ++k) {
     const double w = params_.sweep_steps == 1 ? 0.0 : static_cast<double>(k) / (params_.sweep_steps - 1);
     const double sweep = (params_.sweep_min_deg + w * (params_.sweep_max_deg - params_.sweep_min_deg)) * kDeg;

@@ -6,6 +6,7 @@
 #include <random>
 #include <string>
 
+#include "hmap/core/checked.hpp"
 #include "hmap/core/error.hpp"
 
 namespace hmap::sim {
@@ -111,7 +112,8 @@ std::vector<Eigen::Vector3d> rounded_polyline(std::span<const Eigen::Vector3d> w
     // Straight part of segment i.
     const double s0 = cut[i];
     const double s1 = len[i] - cut[i + 1];
-    const auto pieces = static_cast<int>(std::max(1.0, std::ceil((s1 - s0) / step)));
+    // Way points come from scene files: at most 2^24 steps a segment.
+    const int pieces = checked_count<int>(std::max(1.0, (s1 - s0) / step), 1 << 24, "a path segment");
     for (int k = 0; k <= pieces; ++k) push(along(i, s0 + (s1 - s0) * k / pieces));
     // Arc around corner i + 1.
     if (i + 2 >= n || cut[i + 1] <= 0.0) continue;
@@ -125,7 +127,7 @@ std::vector<Eigen::Vector3d> rounded_polyline(std::span<const Eigen::Vector3d> w
     const Eigen::Vector2d centre = start.head<2>() + side * r * Eigen::Vector2d(-u1.y(), u1.x());
     const Eigen::Vector2d from = start.head<2>() - centre;
     const double a0 = std::atan2(from.y(), from.x());
-    const auto arc_pieces = static_cast<int>(std::max(2.0, std::ceil(r * angle / step)));
+    const int arc_pieces = checked_count<int>(std::max(2.0, r * angle / step), 1 << 24, "a path's corner");
     for (int k = 1; k <= arc_pieces; ++k) {
       const double f = static_cast<double>(k) / arc_pieces;
       const double a = a0 + side * angle * f;
