@@ -133,8 +133,10 @@ std::vector<FreeBand> free_bands(const GridChoice& choice, const Params& params)
 }
 
 /// --costmap and --geotiff: the traversability layers of the chosen grid.
-void export_traversability(const GridChoice& choice, const ExportOptions& o) {
+/// The grid is read as --pgm writes it (`reading`: GridReading::for_map), so lethal and free agree.
+void export_traversability(const GridChoice& choice, const ExportOptions& o, const GridReading& reading) {
   TraversabilityParams tp = o.traversability;
+  tp.reading = reading;
   const TraversabilityLayers layers = traversability(choice.grid, GroundModel(choice.ground), tp);
   if (!o.costmap.empty()) {
     write_costmap_pgm(o.costmap, layers);
@@ -145,10 +147,11 @@ void export_traversability(const GridChoice& choice, const ExportOptions& o) {
       unknown += c == TraversabilityLayers::kUnknown ? 1 : 0;
     }
     std::printf("wrote %s.pgm + .yaml (Nav2 scale mode): %zu lethal, %zu free, %zu between, %zu unknown (written lethal) "
-                "cells of %.3f m; lethal from a step of %.2f m or a slope of %.1f deg, inflation %.2f m\n",
+                "cells of %.3f m; lethal from p > %.2f, a step of %.2f m or a slope of %.1f deg, no grid cost from "
+                "p <= %.3g, inflation %.2f m\n",
                 std::filesystem::path(o.costmap).replace_extension().string().c_str(), lethal, free_cells,
-                layers.cost.size() - lethal - free_cells - unknown, unknown, layers.cell_size, tp.max_step, tp.max_slope_deg,
-                tp.inflation_radius);
+                layers.cost.size() - lethal - free_cells - unknown, unknown, layers.cell_size, tp.reading.occupied_above, tp.max_step,
+                tp.max_slope_deg, tp.reading.free_at_most, tp.inflation_radius);
   }
   if (!o.geotiff.empty()) {
     std::size_t with_ground = 0;
@@ -192,17 +195,19 @@ void run_export(const ExportOptions& o) {
   if (!o.pgm.empty() || !o.costmap.empty() || !o.geotiff.empty() || bt_free) chosen = choose_grid(file, o);
   if (!o.pgm.empty() || !o.costmap.empty() || !o.geotiff.empty()) {
     const GridChoice& choice = *chosen;
+    // Free from one clear ground pass on (p <= K_g), occupied above 0.65: the PGM, its counts and
+    // the costmap all read the grid so.
+    const GridReading reading = GridReading::for_map(map.params().occupancy);
     if (!o.pgm.empty()) {
-      // Free from one clear ground pass on (p <= K_g), occupied above 0.65 (GridReading::for_map).
       PgmExportParams pgm;
-      pgm.reading = GridReading::for_map(map.params().occupancy);
+      pgm.reading = reading;
       write_pgm_map(o.pgm, choice.grid, pgm);
       const auto [occupied, free_cells] = count_classes(choice.grid, pgm);
       std::printf("wrote %s.pgm + .yaml: %zu occupied (p > %.2f) and %zu free (p <= %.3g) cells of %.3f m, %s\n",
                   std::filesystem::path(o.pgm).replace_extension().string().c_str(), occupied, pgm.reading.occupied_above,
                   free_cells, pgm.reading.free_at_most, map.cell_size(), choice.what.c_str());
     }
-    if (!o.costmap.empty() || !o.geotiff.empty()) export_traversability(choice, o);
+    if (!o.costmap.empty() || !o.geotiff.empty()) export_traversability(choice, o, reading);
   }
   if (o.ply.empty() && o.bt.empty()) return;
   if (!o.bt.empty()) {

@@ -66,6 +66,43 @@ TEST(TraversabilityTest, CostsFromOccupancyStepAndSlope) {
   EXPECT_TRUE(std::isnan(l.ground_z[l.index(40, 40)]));
 }
 
+// The costmap reads the grid as the exported PGM does (GridReading::for_map at K_g = 0.3: free up to
+// 0.3, occupied above 0.65). Hand-computed cells on the flat patch: p = 0.25, which the PGM writes
+// free, costs 0 (map_server's 0.196 would give round(99 * 0.054 / 0.454) = 12); p = 0.3, free by the
+// reading's slack on the float log-odds, 0; p = 0.5, round(99 * 0.2 / 0.35) = 57; p = 0.6,
+// round(99 * 0.3 / 0.35) = 85; p = 0.65, not above the threshold, 99; p = 0.66 lethal.
+TEST(TraversabilityTest, ReadsTheGridWithTheExportedThresholds) {
+  OccupancyGrid grid = free_grid();
+  grid.set({0, 0}, log_odds(0.25));
+  grid.set({1, 0}, log_odds(0.3));
+  grid.set({2, 0}, log_odds(0.5));
+  grid.set({3, 0}, log_odds(0.6));
+  grid.set({4, 0}, log_odds(0.65 - 1e-6));
+  grid.set({5, 0}, log_odds(0.66));
+  OccupancyParams occupancy;
+  TraversabilityParams p;
+  p.reading = GridReading::for_map(occupancy);
+  ASSERT_DOUBLE_EQ(p.reading.free_at_most, 0.3);
+  const TraversabilityLayers l = traversability(grid, ground(), p);
+  const auto at = [&](int i) { return static_cast<int>(l.cost[l.index(i - l.i_min, -l.j_min)]); };
+  EXPECT_EQ(at(0), 0);
+  EXPECT_EQ(at(1), 0);
+  EXPECT_EQ(at(2), 57);
+  EXPECT_EQ(at(3), 85);
+  EXPECT_EQ(at(4), 99);
+  EXPECT_EQ(at(5), 100);
+  // Each cell's class agrees with the reading the PGM is written by: lethal exactly where it says
+  // occupied, no grid cost exactly where it says free (the flat patch adds no step or slope).
+  for (int i = 0; i <= 5; ++i) {
+    const CellClass c = p.reading.classify(*grid.probability_at({i, 0}));
+    EXPECT_EQ(at(i) == 100, c == CellClass::kOccupied) << i;
+    EXPECT_EQ(at(i) == 0, c == CellClass::kFree) << i;
+  }
+  // map_server's own thresholds (the default reading) grade the p = 0.25 cell instead.
+  const TraversabilityLayers server = traversability(grid, ground(), TraversabilityParams{});
+  EXPECT_EQ(static_cast<int>(server.cost[server.index(-server.i_min, -server.j_min)]), 12);
+}
+
 // Inflation: 99 exp(-3 d) at the 4-neighbours (d = 0.25: 47) and the diagonals (0.354: 34), nothing
 // beyond the radius, lethal and unknown cells untouched.
 TEST(TraversabilityTest, InflationAroundLethalCells) {

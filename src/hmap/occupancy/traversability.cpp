@@ -20,8 +20,9 @@ constexpr double kPi = 3.14159265358979323846;
 void validate(const TraversabilityParams& p) {
   require(p.max_step > 0.0 && p.max_step <= 10.0, "max_step", p.max_step, "(0, 10] m");
   require(p.max_slope_deg > 0.0 && p.max_slope_deg <= 90.0, "max_slope_deg", p.max_slope_deg, "(0, 90] deg");
-  require(p.free_thresh > 0.0 && p.free_thresh < p.occupied_thresh && p.occupied_thresh < 1.0, "free_thresh",
-          p.free_thresh, "0 < free_thresh < occupied_thresh < 1");
+  require(p.reading.free_at_most > 0.0 && p.reading.free_at_most < p.reading.occupied_above &&
+              p.reading.occupied_above < 1.0,
+          "reading.free_at_most", p.reading.free_at_most, "0 < free_at_most < occupied_above < 1");
   require(p.ground_reach > 0.0 && p.ground_reach <= 1000.0, "ground_reach", p.ground_reach, "(0, 1000] m");
   require(p.inflation_radius >= 0.0 && p.inflation_radius <= 100.0, "inflation_radius", p.inflation_radius,
           "[0, 100] m");
@@ -101,11 +102,15 @@ TraversabilityLayers traversability(const OccupancyGrid& grid, const GroundModel
       if (!prob && !has_ground) continue;
       double term = 0.0;
       if (prob) {
-        if (*prob > p.occupied_thresh) {
+        // The reading's classes (with its slack), so lethal and grid-free cells are the PGM's.
+        const CellClass c = p.reading.classify(*prob);
+        if (c == CellClass::kOccupied) {
           out.cost[k] = 100;
           continue;
         }
-        if (*prob >= p.free_thresh) term = (*prob - p.free_thresh) / (p.occupied_thresh - p.free_thresh);
+        if (c == CellClass::kUndecided) {
+          term = (*prob - p.reading.free_at_most) / (p.reading.occupied_above - p.reading.free_at_most);
+        }
       }
       if (has_ground) {
         term = std::max({term, out.step[k] / p.max_step, out.slope_deg[k] / p.max_slope_deg});

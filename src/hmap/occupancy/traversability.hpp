@@ -8,6 +8,7 @@
 
 #include "hmap/core/params.hpp"
 #include "hmap/ground/ground_patches.hpp"
+#include "hmap/occupancy/grid_reading.hpp"
 #include "hmap/occupancy/occupancy_grid.hpp"
 
 namespace hmap {
@@ -16,8 +17,10 @@ namespace hmap {
 struct TraversabilityParams {
   double max_step = 0.2;            ///< [m] a ground step this high or higher is lethal (cost 100)
   double max_slope_deg = 20.0;      ///< [deg] ground this steep or steeper is lethal
-  double occupied_thresh = 0.65;    ///< [-] grid p above it: lethal (map_server's threshold)
-  double free_thresh = 0.196;       ///< [-] grid p below it: free; between: the cost scales with p
+  /// How the grid's p is read: occupied (lethal) above `occupied_above`, free (no cost from the
+  /// grid) at or below `free_at_most`, the cost scaling with p between. Give the reading the grid
+  /// is exported with (`GridReading::for_map`), so the costmap agrees with the PGM cell by cell.
+  GridReading reading;
   double ground_reach = 3.0;        ///< [m] cells farther from every ground patch have no ground
   double inflation_radius = 0.0;    ///< [m] lethal cells raise the cost of cells this near; 0 = none
   double cost_scaling = 3.0;        ///< [1/m] inflated cost 99·exp(−cost_scaling·d) at distance d
@@ -45,7 +48,8 @@ struct TraversabilityLayers {
 
 /// Builds the layers. Cost per known cell: 100 when the grid says occupied or the step or slope
 /// reaches its limit; else 99·max(step / max_step, slope / max_slope, grid term) rounded, the grid
-/// term (p − free_thresh) / (occupied_thresh − free_thresh) between the thresholds and 0 below;
+/// term (p − free_at_most) / (occupied_above − free_at_most) for a cell the reading leaves
+/// undecided and 0 for a free one;
 /// then the inflation. `max_cells` bounds the box (throws hmap::Error naming the size beyond it).
 [[nodiscard]] TraversabilityLayers traversability(const OccupancyGrid& grid, const GroundModel& ground,
                                                   const TraversabilityParams& p, std::size_t max_cells = 400'000'000);
