@@ -93,6 +93,25 @@ TEST(ScanMatcher, RecoversAKnownPlanarTransform) {
   EXPECT_GT(r.eigenvalues(0), 0.0);
 }
 
+TEST(ScanMatcher, RecoversAKnownPlanarTransformAtAnyHeading) {
+  // The same small transform as above, with the sensor heading 90°, 180° and −120° in the map: the
+  // yaw column of the Jacobian (∂S/∂φ) has its sin φ terms in play, which vanish near φ = 0.
+  const sim::Scene scene = yard_builder().build();
+  const Params p = yard_params();
+  for (const double heading : {90.0 * kDeg, 180.0 * kDeg, -120.0 * kDeg}) {
+    const PlanarPose first{0.0, 0.0, heading};
+    const PlanarPose truth{0.08, -0.06, heading + 1.0 * kDeg};
+    TwoScans s = two_scans(scene, p, {first}, truth);
+    ScanMatcher matcher(p);
+    const MatchResult r = matcher.match(s.scan_level, s.map, first);
+    EXPECT_TRUE(r.converged) << heading / kDeg;
+    EXPECT_FALSE(r.coarse_search) << heading / kDeg;  // Gauss-Newton found it from the guess
+    EXPECT_NEAR(r.pose.x, truth.x, 0.02) << heading / kDeg;
+    EXPECT_NEAR(r.pose.y, truth.y, 0.02) << heading / kDeg;
+    EXPECT_LT(yaw_error(r.pose.yaw, truth.yaw), 0.2 * kDeg) << heading / kDeg;
+  }
+}
+
 bool recovered(const MatchResult& r, const PlanarPose& truth) {
   return std::hypot(r.pose.x - truth.x, r.pose.y - truth.y) < 0.02 && yaw_error(r.pose.yaw, truth.yaw) < 0.2 * kDeg;
 }
