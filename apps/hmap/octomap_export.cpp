@@ -20,6 +20,15 @@ namespace hmap::cli {
 
 namespace {
 
+/// OctoMap's coordToKeyChecked casts the scaled coordinate to int before it checks the range:
+/// undefined for a coordinate beyond ±2^31 cells (an HVoxel at 1e39 m, clang's UBSan). The key
+/// range (±32768 cells) is checked here first, NaN included.
+bool key_checked(const octomap::OcTree& tree, double x, double y, double z, octomap::OcTreeKey& key) {
+  const double limit = 32768.0 * tree.getResolution();
+  if (!(std::abs(x) < limit && std::abs(y) < limit && std::abs(z) < limit)) return false;
+  return tree.coordToKeyChecked(x, y, z, key);
+}
+
 /// Sends file descriptor 2 to /dev/null for its lifetime (liboctomap prints with fprintf too).
 class QuietStderr {
  public:
@@ -62,7 +71,7 @@ OctomapExportStats write_octomap_bt(const std::filesystem::path& path, const HMa
     const Eigen::Vector2d xy = map.cell_center(key);
     for (const HVoxel& v : column) {
       octomap::OcTreeKey k;
-      const bool inside = tree.coordToKeyChecked(xy.x(), xy.y(), v.z_min, k) && tree.coordToKeyChecked(xy.x(), xy.y(), v.z_max, k);
+      const bool inside = key_checked(tree, xy.x(), xy.y(), v.z_min, k) && key_checked(tree, xy.x(), xy.y(), v.z_max, k);
       if (!inside) {
         ++beyond;
         continue;
@@ -73,8 +82,8 @@ OctomapExportStats write_octomap_bt(const std::filesystem::path& path, const HMa
   for (const FreeBand& band : free) {
     const Eigen::Vector2d xy = map.cell_center(band.key);
     octomap::OcTreeKey k;
-    if (!(band.z_high > band.z_low) || !tree.coordToKeyChecked(xy.x(), xy.y(), band.z_low, k) ||
-        !tree.coordToKeyChecked(xy.x(), xy.y(), band.z_high, k)) {
+    if (!(band.z_high > band.z_low) || !key_checked(tree, xy.x(), xy.y(), band.z_low, k) ||
+        !key_checked(tree, xy.x(), xy.y(), band.z_high, k)) {
       continue;  // free space beyond the key range is left unknown, not refused: it is not the map
     }
     leaves_needed += std::floor(band.z_high / res) - std::floor(band.z_low / res);
@@ -93,8 +102,8 @@ OctomapExportStats write_octomap_bt(const std::filesystem::path& path, const HMa
   for (const FreeBand& band : free) {
     const Eigen::Vector2d xy = map.cell_center(band.key);
     octomap::OcTreeKey k;
-    if (!(band.z_high > band.z_low) || !tree.coordToKeyChecked(xy.x(), xy.y(), band.z_low, k) ||
-        !tree.coordToKeyChecked(xy.x(), xy.y(), band.z_high, k)) {
+    if (!(band.z_high > band.z_low) || !key_checked(tree, xy.x(), xy.y(), band.z_low, k) ||
+        !key_checked(tree, xy.x(), xy.y(), band.z_high, k)) {
       continue;
     }
     const auto first = static_cast<long>(std::floor(band.z_low / res)) + 1;  // (z_low, z_high]
