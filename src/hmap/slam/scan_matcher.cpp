@@ -372,7 +372,8 @@ std::vector<PlanarPose> ScanMatcher::coarse_search(const PlanarPose& guess) {
                              static_cast<double>(candidates_.size());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, costs.size(), per_yaw), [&](const auto& range) {
     for (std::size_t k = range.begin(); k != range.end(); ++k) {
-      costs[k] = cost_only(pose_at(k), stride) + prior_share * prior_cost_at(pose_at(k));
+      const PlanarPose pose = pose_at(k);
+      costs[k] = cost_only(pose, stride) + prior_share * prior_cost_at(pose);
     }
   });
   std::array<Scored, kCoarseStarts> best;
