@@ -119,6 +119,49 @@ TEST(MapperTest, WithoutFreeSpaceTheObjectStays) {
   EXPECT_TRUE(m.map().occupied(3.95, 0.05, 1.0));
 }
 
+/// `count` points spread over z in [z0, z1] at the centre of the cell (x, y), sensor at the origin.
+PointCloud stack(double x, double y, double z0, double z1, int count) {
+  PointCloud pts;
+  for (int k = 0; k < count; ++k) pts.emplace_back(Point3f(static_cast<float>(x), static_cast<float>(y),
+                                                          static_cast<float>(z0 + (z1 - z0) * k / (count - 1))));
+  return pts;
+}
+
+// III-D: an HVoxel of a new scan joins the column's HVoxels it overlaps or comes closer to than
+// the point-distance threshold; farther ones stay apart. (Merging with a gap of 0 kept the two
+// near ones apart and passed every other test.)
+TEST(MapperTest, ScansMergeWithinThePointDistanceThreshold) {
+  Params p = test_params();  // d_pth 0.15 m, cells 0.1 m
+  p.map.free_space = FreeSpaceMode::kNone;
+  Mapper m(p);
+  m.integrate(stack(5.05, 0.05, 0.00, 0.10, 20), Pose::Identity());
+  m.integrate(stack(5.05, 0.05, 0.20, 0.30, 20), Pose::Identity());  // 0.10 m above: merged
+  m.integrate(stack(5.05, 0.05, 0.60, 0.70, 20), Pose::Identity());  // 0.30 m above: apart
+  const ColumnView c = m.map().column(5.05, 0.05);
+  ASSERT_EQ(c.size(), 2U);
+  EXPECT_FLOAT_EQ(c[0].z_min, 0.0F);
+  EXPECT_FLOAT_EQ(c[0].z_max, 0.3F);
+  EXPECT_FLOAT_EQ(c[1].z_min, 0.6F);
+  EXPECT_FLOAT_EQ(c[1].z_max, 0.7F);
+}
+
+// III-E within one scan: a hit outranks a pass-through. Rays to a wall 8 m away pass through the
+// cell of a thin pole 4 m away at the pole's heights; the pole stays, however often it is seen so.
+TEST(MapperTest, AScansOwnRaysDoNotCarveItsOwnHits) {
+  Mapper m(test_params());
+  PointCloud scan = stack(4.05, 0.05, -0.8, 0.8, 40);  // the pole, sensor at z = 1 above the floor
+  for (int k = 0; k < 400; ++k) {
+    const double y = 0.01 + 0.08 * (k % 20) / 19.0;      // behind the pole's cell, as seen from the sensor
+    const double z = -0.6 + 1.2 * (k / 20) / 19.0;
+    for (const Point3f& q : stack(8.0, 2.0 * y, 2.0 * z, 2.0 * z, 2)) scan.push_back(q);
+  }
+  for (int k = 0; k < 6; ++k) m.integrate(scan, at({0, 0, 0}));
+  const ColumnView c = m.map().column(4.05, 0.05);
+  ASSERT_EQ(c.size(), 1U);
+  EXPECT_FLOAT_EQ(c[0].z_min, -0.8F);
+  EXPECT_FLOAT_EQ(c[0].z_max, 0.8F);
+}
+
 TEST(MapperTest, ColumnsStayValidAndRecoveryCoversHVoxels) {
   Mapper m(test_params());
   for (int k = 0; k < 4; ++k) {
