@@ -69,5 +69,21 @@ TEST(Measure, PlaneAndEndOfASyntheticFace) {
   EXPECT_FALSE(measure_extent(map, face, 1, -1).has_value());
 }
 
+// The plane is the weighted median of the flat voxels' means, by hand: three voxels of a face x ≈
+// 0.3 with 30, 100 and 30 points at x = 0.31, 0.32, 0.34 (each flat: weight ∝ points). Sorted, the
+// weights run 30, 130, 160 of 160: the median is 0.32 (the minimum would be 0.31, the mean 0.32375).
+TEST(Measure, PlaneIsTheWeightedMedianOfTheFlatVoxels) {
+  VoxelMap map(0.06);
+  const auto fill = [&](double x, double y0, int count) {
+    for (int k = 0; k < count; ++k) map.add_hit(Eigen::Vector3d(x, y0 + 0.04 * (k % 10) / 9.0, 0.01 + 0.04 * (k / 10) / 9.0));
+  };
+  fill(0.31, 0.01, 30);   // voxel y in [0, 0.06)
+  fill(0.32, 0.07, 100);  // [0.06, 0.12)
+  fill(0.34, 0.13, 30);   // [0.12, 0.18)
+  const FaceQuery face{0, Eigen::AlignedBox3d(Eigen::Vector3d(0.2, -0.1, -0.1), Eigen::Vector3d(0.4, 0.3, 0.2))};
+  ASSERT_TRUE(measure_plane(map, face).has_value());
+  EXPECT_NEAR(*measure_plane(map, face), 0.32, 1e-6);  // moments are kept in float
+}
+
 }  // namespace
 }  // namespace hmap::pvox
