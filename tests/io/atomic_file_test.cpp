@@ -2,7 +2,10 @@
 
 #include <gtest/gtest.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
+#include <chrono>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
@@ -133,6 +136,52 @@ TEST_F(AtomicFileTest, AFolderIsReplacedAsAWhole) {
   EXPECT_FALSE(std::filesystem::exists(target / "old_only.txt"));
   EXPECT_FALSE(std::filesystem::exists(staging));
   EXPECT_EQ(files_in_dir(), 1U);
+}
+
+/// The PID of a process that has ended (a child reaped here).
+pid_t ended_pid() {
+  const pid_t child = ::fork();
+  if (child == 0) ::_exit(0);
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  return child;
+}
+
+// What a killed run left beside its output goes with the next write there: the temporaries of
+// ended processes untouched for kStaleTemporaryAge. A fresh one (its writer may be in another PID
+// namespace), one of this process, and other names stay.
+TEST_F(AtomicFileTest, LeftoversOfKilledRunsAreRemovedByTheNextWrite) {
+  const std::string dead = std::to_string(ended_pid());
+  const std::string alive = std::to_string(::getpid());
+  const auto old = std::filesystem::file_time_type::clock::now() - kStaleTemporaryAge - std::chrono::minutes(1);
+  const auto make = [&](const std::string& name, bool folder, bool aged) {
+    const auto path = dir_ / name;
+    if (folder) {
+      std::filesystem::create_directory(path);
+      std::ofstream(path / "poses.txt") << "half";
+    } else {
+      std::ofstream(path) << "half";
+    }
+    if (aged) std::filesystem::last_write_time(path, old);
+    return path;
+  };
+  const auto stale_folder = make(".set.tmp." + dead + ".0badc0de", true, true);
+  const auto stale_file = make(".m.hmap.tmp." + dead + ".12345678", false, true);
+  const auto fresh = make(".set.tmp." + dead + ".aaaaaaaa", true, false);
+  const auto ours = make(".set.tmp." + alive + ".bbbbbbbb", true, true);
+  const auto other_name = make(".sets.tmp." + dead + ".cccccccc", true, true);
+  const auto not_ours = make(".set.tmp.12x4.dddddddd", false, true);
+  const auto not_hex = make(".set.tmp." + dead + ".notahexx", false, true);
+
+  write_folder_atomic(dir_ / "set", [](const std::filesystem::path& d) { write_file_atomic(d / "a.txt", std::string_view("1")); });
+  EXPECT_FALSE(std::filesystem::exists(stale_folder));
+  for (const auto& kept : {fresh, ours, other_name, not_ours, not_hex}) EXPECT_TRUE(std::filesystem::exists(kept)) << kept;
+  EXPECT_TRUE(std::filesystem::exists(stale_file)) << "another target's leftovers wait for a write to it";
+
+  write_file_atomic(dir_ / "m.hmap", std::string_view("map"));
+  EXPECT_FALSE(std::filesystem::exists(stale_file));
+  EXPECT_EQ(read(dir_ / "m.hmap"), "map");
+  EXPECT_EQ(read(dir_ / "set" / "a.txt"), "1");
 }
 
 }  // namespace

@@ -2,10 +2,13 @@
 
 #include <fcntl.h>
 #include <fnmatch.h>
+#include <signal.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
 #include <array>
+#include <cctype>
+#include <chrono>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
@@ -87,6 +90,24 @@ std::filesystem::path temporary_path_for(const std::filesystem::path& path) {
   return path.parent_path() / name;
 }
 
+/// The PID in `name` when it is `.NAME.tmp.PID.XXXXXXXX` (temporary_path_for's pattern) for
+/// `target_name`, else 0.
+pid_t temporary_owner(const std::string& name, const std::string& target_name) {
+  const std::string prefix = "." + target_name + ".tmp.";
+  if (!name.starts_with(prefix)) return 0;
+  const std::size_t dot = name.find('.', prefix.size());
+  if (dot == std::string::npos || dot == prefix.size() || dot - prefix.size() > 9 || name.size() != dot + 9) return 0;
+  long pid = 0;
+  for (std::size_t k = prefix.size(); k < dot; ++k) {
+    if (!std::isdigit(static_cast<unsigned char>(name[k]))) return 0;
+    pid = pid * 10 + (name[k] - '0');
+  }
+  for (std::size_t k = dot + 1; k < name.size(); ++k) {
+    if (!std::isxdigit(static_cast<unsigned char>(name[k]))) return 0;
+  }
+  return static_cast<pid_t>(pid);
+}
+
 [[noreturn]] void fail(const std::filesystem::path& path, const std::string& what, int error) {
   throw Error(path.string() + ": " + what + ": " + std::strerror(error));
 }
@@ -137,6 +158,7 @@ namespace {
 /// returns its name; `path` itself is not touched. On failure nothing is left behind.
 std::filesystem::path write_temporary(const std::filesystem::path& path, const std::function<void(std::ostream&)>& writer) {
   if (path.filename().empty()) throw Error(path.string() + ": not a file name");
+  remove_stale_temporaries(path);
   const std::filesystem::path temporary = temporary_path_for(path);
 
   // New files get 0666 minus the umask, as with std::ofstream; a replaced file keeps its mode.
@@ -238,8 +260,33 @@ void write_files_with_record(std::initializer_list<std::pair<std::filesystem::pa
   sync_directory(record.parent_path());
 }
 
+void remove_stale_temporaries(const std::filesystem::path& target_in) {
+  const std::filesystem::path target = target_in.filename().empty() ? target_in.parent_path() : target_in;
+  const std::string target_name = target.filename().string();
+  if (target_name.empty()) return;
+  const std::filesystem::path dir = target.parent_path().empty() ? std::filesystem::path(".") : target.parent_path();
+  std::error_code error;
+  std::filesystem::directory_iterator it(dir, error);
+  if (error) return;
+  const auto now = std::chrono::system_clock::now();
+  for (; it != std::filesystem::directory_iterator(); it.increment(error)) {
+    if (error) return;
+    const std::filesystem::path path = it->path();
+    const pid_t owner = temporary_owner(path.filename().string(), target_name);
+    if (owner <= 0 || owner == ::getpid()) continue;
+    if (::kill(owner, 0) == 0 || errno != ESRCH) continue;  // its writer runs (or is not ours to ask)
+    struct stat st {};
+    if (::lstat(path.c_str(), &st) != 0 || S_ISLNK(st.st_mode)) continue;
+    const auto modified = std::chrono::system_clock::from_time_t(st.st_mtime);
+    if (now - modified < kStaleTemporaryAge) continue;
+    std::error_code ignored;
+    std::filesystem::remove_all(path, ignored);
+  }
+}
+
 std::filesystem::path make_staging_folder(const std::filesystem::path& target) {
   const std::filesystem::path name = target.filename().empty() ? target.parent_path() : target;
+  remove_stale_temporaries(name);
   for (int attempt = 0; attempt < 8; ++attempt) {
     const std::filesystem::path staging = temporary_path_for(name);
     if (::mkdir(staging.c_str(), 0777) == 0) return staging;

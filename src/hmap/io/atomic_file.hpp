@@ -2,6 +2,7 @@
 // Writing a file so that readers see either the old content or the complete new one, never a
 // half-written file: write a temporary file beside it, fsync, then rename() over the target.
 
+#include <chrono>
 #include <filesystem>
 #include <functional>
 #include <initializer_list>
@@ -23,6 +24,17 @@ void check_output_file(const std::filesystem::path& path);
 /// Throws hmap::Error unless `dir` is an existing folder this process may create files in; the
 /// message names `for_path` (the output asked for) when given.
 void check_output_folder(const std::filesystem::path& dir, const std::filesystem::path& for_path = {});
+
+/// How long a temporary file or staging folder of a process that no longer runs is left alone
+/// before remove_stale_temporaries takes it away (a process in another PID namespace writing into
+/// the same folder is not visible to kill(); none writes a temporary for this long untouched).
+inline constexpr std::chrono::minutes kStaleTemporaryAge{5};
+
+/// Removes what killed runs left beside `target`: the temporary files and staging folders
+/// `.NAME.tmp.PID.RANDOM` (NAME the target's file name) whose PID no longer runs and which were
+/// not modified for kStaleTemporaryAge. Best effort: what cannot be removed stays. Every atomic
+/// write here calls it for its target first, so a killed run's leftovers go with the next run.
+void remove_stale_temporaries(const std::filesystem::path& target);
 
 /// A new, empty hidden folder beside `target` (".NAME.tmp.PID.RANDOM") to write a set of files
 /// into; replace_folder_atomic then puts the whole set in place of `target` at once.
