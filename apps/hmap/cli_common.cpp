@@ -237,6 +237,11 @@ PointCloud ScanSource::read(std::size_t index, CloudReadStats& stats, std::vecto
   std::string ext = path.extension().string();
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   if (ext == ".png") throw InputError(path.string(), "", "a depth image needs its camera: use --rgbd DIR or --tum DIR");
+  // Before the read: the file's bytes are held while its points are parsed (at most as many bytes
+  // again for the binary formats, fewer for the text ones).
+  std::error_code size_error;
+  const std::uintmax_t size = std::filesystem::file_size(path, size_error);
+  if (!size_error) memory_budget().require(2.0 * static_cast<double>(size), path.string() + ": reading the scan");
   PointCloud cloud = read_cloud(path, &s, times_s);
   stats += s;
   return cloud;

@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cstring>
+
 #include <sys/stat.h>
 
 #include <algorithm>
@@ -226,6 +228,23 @@ TEST_F(CliErrorsTest, TheMapGrowingBeyondTheBudgetIsRefusedByScan) {
                   "--max-range", "20", "--out", path("slam")},
                  {"scan 0 (", "000000.bin", "the map needs", "more than the memory budget of 4 MiB"});
   EXPECT_FALSE(fs::exists(path("slam")));
+}
+
+// A scan file is checked against the budget before it is read: its bytes and its points are held
+// at once (2 x 3.2 MB here against 4 MiB), refused by scan and file, nothing written.
+TEST_F(CliErrorsTest, AScanBeyondTheBudgetIsRefusedBeforeItIsRead) {
+  std::string bin(200000 * 16, '\0');
+  for (std::size_t k = 0; k < 200000; ++k) {
+    const float p[4] = {5.0F + static_cast<float>(k % 100) * 0.01F, static_cast<float>(k / 100) * 0.001F, -1.0F, 0.0F};
+    std::memcpy(bin.data() + k * 16, p, sizeof p);
+  }
+  const std::string scan = write("big.bin", bin);
+  const std::string poses = write("p1.txt", "1 0 0 0 0 1 0 0 0 0 1 0\n");
+  expect_refusal({"--max-memory", "4", "map", scan, "--poses", poses, "--out", path("m.hmap")},
+                 {"big.bin: reading the scan needs 7 MiB, more than the memory budget of 4 MiB", "--max-memory"});
+  EXPECT_FALSE(fs::exists(path("m.hmap")));
+  std::string log;  // within 16 MiB: mapped
+  EXPECT_EQ(test::run_hmap({"--max-memory", "16", "map", scan, "--poses", poses, "--out", path("m.hmap")}, dir_ / "log", log), 0) << log;
 }
 
 TEST_F(CliErrorsTest, AFlagValueWithATerminalEscapeIsQuotedNotSent) {
