@@ -14,7 +14,7 @@
 #include "hmap/io/pgm_export.hpp"
 #include "hmap/io/ply_export.hpp"
 #include "hmap/occupancy/occupancy_update.hpp"
-#include "octomap_export.hpp"
+#include "hmap/io/octomap_export.hpp"
 
 namespace hmap::cli {
 

@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "hmap/core/params.hpp"
 #include "io/io_test_util.hpp"
 
@@ -55,6 +57,29 @@ TEST_F(ConfigTest, IntegersOutOfRangeAreRefusedByName) {
 TEST_F(ConfigTest, AbsurdValuesAreRefusedByName) {
   EXPECT_NE(error("map: {cell_size: 0.000001}\n").find("map.cell_size"), std::string::npos);
   EXPECT_NE(error("map: {max_range: 1000000000}\n").find("map.max_range"), std::string::npos);
+}
+
+TEST(SetParamTest, SetsAndGetsByNameWithTheOverridesMessages) {
+  Params p;
+  set_param(p, "map.cell_size", 0.2);
+  EXPECT_EQ(p.map.cell_size, 0.2);
+  EXPECT_EQ(get_param(p, "map.cell_size"), 0.2);
+  set_param(p, "ground.iterations", 99.6);  // integer fields round, as apply_override does
+  EXPECT_EQ(p.ground.iterations, 100);
+  EXPECT_EQ(get_param(p, "ground.iterations"), 100.0);
+  const auto message = [&](auto&& f) {
+    try {
+      f();
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_EQ(message([&] { set_param(p, "map.cell", 0.2); }).rfind("unknown parameter 'map.cell' (known: map.cell_size, ", 0), 0U);
+  EXPECT_EQ(message([&] { (void)get_param(p, "nope"); }).rfind("unknown parameter 'nope' (known: ", 0), 0U);
+  EXPECT_EQ(message([&] { set_param(p, "map.cell_size", std::nan("")); }),
+            "parameter 'map.cell_size' needs a finite number, got 'nan'");
+  EXPECT_EQ(p.map.cell_size, 0.2);
 }
 
 }  // namespace

@@ -2,6 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <string>
+
 #include "hmap/core/error.hpp"
 
 namespace hmap {
@@ -75,6 +78,40 @@ TEST(OccupancyGridTest, MoreOccupiedTakesTheLargerLogOddsCellByCell) {
   // Empty with empty is empty; different cells are refused.
   EXPECT_EQ(more_occupied(OccupancyGrid(0.1, 0.12, 0.97), OccupancyGrid(0.1, 0.12, 0.97)).known_cells(), 0U);
   EXPECT_THROW((void)more_occupied(a, OccupancyGrid(0.2, 0.12, 0.97)), Error);
+}
+
+TEST(GridRasterTest, CoversTheObservedCellsBoundingBox) {
+  OccupancyGrid g(0.5, 0.12, 0.97);
+  g.set({-3, 2}, log_odds(0.8));
+  g.set({1, 4}, log_odds(0.2));
+  const GridRaster r = raster(g);
+  EXPECT_EQ(r.i_min, -3);
+  EXPECT_EQ(r.j_min, 2);
+  EXPECT_EQ(r.width, 5);   // i = -3 .. 1
+  EXPECT_EQ(r.height, 3);  // j = 2 .. 4
+  EXPECT_DOUBLE_EQ(r.cell_size, 0.5);
+  ASSERT_EQ(r.probability.size(), 15U);
+  EXPECT_NEAR(r.probability[0], 0.8, 1e-6);                 // (col 0, row 0): key (-3, 2)
+  EXPECT_NEAR(r.probability[2 * 5 + 4], 0.2, 1e-6);         // (col 4, row 2): key (1, 4)
+  int unknown = 0;
+  for (float p : r.probability) unknown += std::isnan(p) ? 1 : 0;
+  EXPECT_EQ(unknown, 13);
+}
+
+TEST(GridRasterTest, EmptyGridGivesAnEmptyRasterAndAHugeSpanIsRefused) {
+  OccupancyGrid g(0.1, 0.12, 0.97);
+  const GridRaster empty = raster(g);
+  EXPECT_EQ(empty.width, 0);
+  EXPECT_EQ(empty.height, 0);
+  EXPECT_TRUE(empty.probability.empty());
+  g.set({0, 0}, 0.0F);
+  g.set({100000, 100000}, 0.0F);  // two cells 10 km apart: 10^10 cells
+  try {
+    (void)raster(g);
+    FAIL() << "a 100001 x 100001 raster was made";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("span 100001 x 100001 cells"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

@@ -121,6 +121,24 @@ void apply_override(std::string_view assignment, Params& params) {
   ref->set(value);
 }
 
+void set_param(Params& params, std::string_view name, double value) {
+  auto refs = param_refs(params);
+  ParamRef* ref = find_param(refs, name);
+  if (ref == nullptr) throw Error("unknown parameter '" + std::string(name) + "' (known: " + known_names(refs) + ")");
+  if (!std::isfinite(value)) {
+    throw Error("parameter '" + std::string(name) + "' needs a finite number, got '" + std::to_string(value) + "'");
+  }
+  ref->set(value);
+}
+
+double get_param(const Params& params, std::string_view name) {
+  Params copy = params;  // param_refs binds to a mutable Params
+  auto refs = param_refs(copy);
+  const ParamRef* ref = find_param(refs, name);
+  if (ref == nullptr) throw Error("unknown parameter '" + std::string(name) + "' (known: " + known_names(refs) + ")");
+  return ref->get();
+}
+
 Params resolve_params(const ParamSources& sources) {
   Params p = preset(sources.preset);
   if (!sources.config.empty()) apply_config_file(sources.config, p);

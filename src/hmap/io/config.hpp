@@ -22,6 +22,13 @@ namespace hmap {
 /// a value that is not a number, or YAML syntax errors; the result is validated.
 void apply_config_file(const std::filesystem::path& path, Params& params);
 
+/// Sets the parameter called `name` ("map.cell_size") to `value`, rounding integer fields; throws
+/// hmap::Error naming the parameter when the name is unknown or the value is not finite. Ranges
+/// are left to validate(), as rules between parameters need them all set.
+void set_param(Params& params, std::string_view name, double value);
+/// The value of the parameter called `name`; throws hmap::Error for an unknown name.
+[[nodiscard]] double get_param(const Params& params, std::string_view name);
+
 /// Applies one "name=value" override (as given on the command line); throws hmap::Error naming
 /// the parameter when the name is unknown or the value is not a number.
 void apply_override(std::string_view assignment, Params& params);

@@ -1,8 +1,10 @@
 #include "hmap/occupancy/occupancy_grid.hpp"
 
 #include <algorithm>
+#include <cstdint>
 
 #include "hmap/core/error.hpp"
+#include "hmap/core/format.hpp"
 
 namespace hmap {
 
@@ -58,6 +60,35 @@ OccupancyGrid more_occupied(const OccupancyGrid& a, const OccupancyGrid& b) {
     if (!kept || l > *kept) out.set(key, l);
   });
   return out;
+}
+
+GridRaster raster(const OccupancyGrid& grid, std::size_t max_cells) {
+  GridRaster r;
+  r.cell_size = grid.cell_size();
+  std::int64_t i_min = INT64_MAX, i_max = INT64_MIN, j_min = INT64_MAX, j_max = INT64_MIN;
+  grid.for_each_cell([&](const CellKey& k, float) {
+    i_min = std::min<std::int64_t>(i_min, k.i);
+    i_max = std::max<std::int64_t>(i_max, k.i);
+    j_min = std::min<std::int64_t>(j_min, k.j);
+    j_max = std::max<std::int64_t>(j_max, k.j);
+  });
+  if (i_min > i_max) return r;
+  const std::int64_t width = i_max - i_min + 1;
+  const std::int64_t height = j_max - j_min + 1;
+  if (static_cast<double>(width) * static_cast<double>(height) > static_cast<double>(max_cells)) {
+    throw Error(format("the 2D grid's observed cells span %lld x %lld cells, more than the %zu cells a raster may hold",
+                       static_cast<long long>(width), static_cast<long long>(height), max_cells));
+  }
+  r.i_min = static_cast<std::int32_t>(i_min);
+  r.j_min = static_cast<std::int32_t>(j_min);
+  r.width = static_cast<std::int32_t>(width);
+  r.height = static_cast<std::int32_t>(height);
+  r.probability.assign(static_cast<std::size_t>(width * height), std::numeric_limits<float>::quiet_NaN());
+  grid.for_each_cell([&](const CellKey& k, float l) {
+    const auto index = static_cast<std::size_t>((k.j - j_min) * width + (k.i - i_min));
+    r.probability[index] = static_cast<float>(probability(l));
+  });
+  return r;
 }
 
 }  // namespace hmap

@@ -4,8 +4,10 @@
 
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <optional>
+#include <vector>
 
 #include "hmap/core/params.hpp"
 #include "hmap/core/types.hpp"
@@ -79,5 +81,19 @@ class OccupancyGrid {
 /// that one's value), with `a`'s clamping bounds: for a planner, an obstacle either grid holds is
 /// an obstacle. Throws hmap::Error when the cell sizes differ.
 [[nodiscard]] OccupancyGrid more_occupied(const OccupancyGrid& a, const OccupancyGrid& b);
+
+/// The grid as a dense raster over the bounding box of its observed cells: cell (col, row) is the
+/// key (i_min + col, j_min + row), so x grows with col and y with row (row 0 the southernmost);
+/// the raster's lower-left corner is (i_min, j_min) · cell_size in the map frame.
+struct GridRaster {
+  std::int32_t i_min = 0, j_min = 0;
+  std::int32_t width = 0, height = 0;  ///< [cells]; 0 × 0 for a grid without an observed cell
+  double cell_size = 0.0;              ///< [m]
+  std::vector<float> probability;      ///< row-major (row · width + col); NaN where never observed
+};
+
+/// The raster of `grid`. Throws hmap::Error when the box holds more than `max_cells` cells (a few
+/// cells kilometres apart must not ask for gigabytes).
+[[nodiscard]] GridRaster raster(const OccupancyGrid& grid, std::size_t max_cells = 400'000'000);
 
 }  // namespace hmap

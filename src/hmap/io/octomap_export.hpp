@@ -4,9 +4,10 @@
 #include <filesystem>
 #include <span>
 
+#include "hmap/core/budget.hpp"
 #include "hmap/maps/hmap.hpp"
 
-namespace hmap::cli {
+namespace hmap {
 
 /// What an OctoMap export wrote, counted as liboctomap counts the file it reads back.
 struct OctomapExportStats {
@@ -32,4 +33,4 @@ struct FreeBand {
 OctomapExportStats write_octomap_bt(const std::filesystem::path& path, const HMap& map, std::span<const FreeBand> free,
                                     const MemoryBudget& budget);
 
-}  // namespace hmap::cli
+}  // namespace hmap

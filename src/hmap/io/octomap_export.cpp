@@ -1,4 +1,4 @@
-#include "octomap_export.hpp"
+#include "hmap/io/octomap_export.hpp"
 
 #include <octomap/OcTree.h>
 
@@ -16,7 +16,7 @@
 #include "hmap/core/format.hpp"
 #include "hmap/io/atomic_file.hpp"
 
-namespace hmap::cli {
+namespace hmap {
 
 namespace {
 
@@ -151,4 +151,4 @@ OctomapExportStats write_octomap_bt(const std::filesystem::path& path, const HMa
   return stats;
 }
 
-}  // namespace hmap::cli
+}  // namespace hmap

@@ -1,0 +1,78 @@
+"""hmap: height-voxel maps (HMAP), the 2D occupancy grid and ground patches from 3D point clouds.
+
+A thin shell over the C++ libraries (module ``_hmap``)::
+
+    import numpy as np, hmap
+    params = hmap.Params("outdoor")
+    params.map.cell_size = 0.2            # or params.set("map.cell_size", 0.2)
+    mapper = hmap.HybridMapper(params)
+    mapper.integrate(points_sensor, T_map_sensor)   # (N, 3) float32/float64, 4x4 pose
+    m = mapper.map
+    m.occupied(np.array([[1.0, 2.0, 0.5]]))         # -> array([ True])
+    m.save("out.hmap")
+
+Errors of the library (bad parameters, malformed files) raise ``hmap.Error`` (``hmap.InputError``
+for a file), both ``ValueError`` subclasses carrying the library's one-line message.
+"""
+
+from . import _hmap
+from ._hmap import Error, Grid2D, HybridMapper, InputError, Map, Mapper, Params
+from . import io
+
+__all__ = ["Error", "InputError", "Params", "Mapper", "HybridMapper", "Map", "Grid2D", "io"]
+
+_SECTIONS = sorted({name.split(".", 1)[0] for name in Params.names()})
+
+
+class _Section:
+    """The parameters of one section (``params.map``) as attributes, read and set through the
+    Params they belong to, so every assignment is validated by the library."""
+
+    __slots__ = ("_params", "_section")
+
+    def __init__(self, params, section):
+        object.__setattr__(self, "_params", params)
+        object.__setattr__(self, "_section", section)
+
+    def _name(self, attr):
+        return f"{self._section}.{attr}"
+
+    def __getattr__(self, attr):
+        name = self._name(attr)
+        if name not in _NAMES:
+            raise AttributeError(f"no parameter {name} (hmap.Params.names() lists them)")
+        return self._params.get(name)
+
+    def __setattr__(self, attr, value):
+        self._params.set(self._name(attr), value)
+
+    def __dir__(self):
+        prefix = self._section + "."
+        return [n[len(prefix):] for n in _NAME_LIST if n.startswith(prefix)]
+
+    def __repr__(self):
+        return "{" + ", ".join(f"{n}: {getattr(self, n)!r}" for n in self.__dir__()) + "}"
+
+
+_NAME_LIST = Params.names()  # in the library's order
+_NAMES = frozenset(_NAME_LIST)
+
+
+def _params_getattr(self, section):
+    if section in _SECTIONS:
+        return _Section(self, section)
+    raise AttributeError(f"'Params' has no attribute {section!r} (sections: {', '.join(_SECTIONS)})")
+
+
+def _params_dir(self):
+    return sorted(set(object.__dir__(self)) | set(_SECTIONS))
+
+
+def _params_repr(self):
+    return "hmap.Params(" + ", ".join(f"{n}={self.get(n)!r}" for n in Params.names()) + ")"
+
+
+Params.__getattr__ = _params_getattr
+Params.__dir__ = _params_dir
+Params.__repr__ = _params_repr
+Params.__copy__ = lambda self: self.copy()

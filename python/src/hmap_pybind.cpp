@@ -1,0 +1,518 @@
+// The Python module _hmap: a thin shell over the hmap libraries. Arrays are checked and converted
+// here; every map operation is a library call. python/hmap/__init__.py adds the Python-side sugar.
+
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+#include <pybind11/stl/filesystem.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "hmap/core/error.hpp"
+#include "hmap/core/format.hpp"
+#include "hmap/core/params.hpp"
+#include "hmap/core/pose.hpp"
+#include "hmap/io/cloud_reader.hpp"
+#include "hmap/io/config.hpp"
+#include "hmap/io/hmap_file.hpp"
+#include "hmap/io/poses.hpp"
+#include "hmap/maps/mapper.hpp"
+#include "hmap/occupancy/hybrid_mapper.hpp"
+
+namespace py = pybind11;
+
+namespace hmap::python {
+
+namespace {
+
+// ---------------------------------------------------------------------------------------------
+// Arrays in
+
+/// What to do with points holding NaN or infinity.
+enum class NonFinite { kRaise, kDrop };
+
+NonFinite non_finite_mode(const std::string& text) {
+  if (text == "raise") return NonFinite::kRaise;
+  if (text == "drop") return NonFinite::kDrop;
+  throw py::value_error("non_finite must be 'raise' or 'drop', got '" + text + "'");
+}
+
+/// `a` checked to be an (N, 3) array of float32 or float64; `what` names it in messages.
+py::array checked_points(const py::handle& a, const char* what) {
+  if (!py::isinstance<py::array>(a)) {
+    throw py::value_error(format("%s must be a numpy array of shape (N, 3), got %s", what,
+                                 std::string(py::str(py::type::handle_of(a).attr("__name__"))).c_str()));
+  }
+  auto arr = py::reinterpret_borrow<py::array>(a);
+  if (arr.ndim() != 2 || arr.shape(1) != 3) {
+    std::string shape = "(";
+    for (py::ssize_t d = 0; d < arr.ndim(); ++d) shape += (d ? ", " : "") + std::to_string(arr.shape(d));
+    shape += arr.ndim() == 1 ? ",)" : ")";
+    throw py::value_error(format("%s must have shape (N, 3), got %s", what, shape.c_str()));
+  }
+  if (!arr.dtype().is(py::dtype::of<float>()) && !arr.dtype().is(py::dtype::of<double>())) {
+    throw py::value_error(format("%s must hold float32 or float64, got dtype %s", what,
+                                 std::string(py::str(arr.dtype())).c_str()));
+  }
+  return arr;
+}
+
+/// Points of an (N, 3) array, viewed without a copy when it is C-contiguous float32 (the layout
+/// of std::vector<Point3f>), else converted into `storage`.
+std::span<const Point3f> points_of(const py::array& arr, PointCloud& storage, NonFinite mode, const char* what) {
+  static_assert(sizeof(Point3f) == 3 * sizeof(float), "Point3f must be three packed floats");
+  const auto n = static_cast<std::size_t>(arr.shape(0));
+  std::span<const Point3f> points;
+  if (arr.dtype().is(py::dtype::of<float>()) && (arr.flags() & py::array::c_style) != 0) {
+    points = {static_cast<const Point3f*>(arr.data()), n};
+  } else if (arr.dtype().is(py::dtype::of<float>())) {
+    const auto r = py::reinterpret_borrow<py::array_t<float>>(arr).unchecked<2>();
+    storage.resize(n);
+    for (std::size_t i = 0; i < n; ++i) storage[i] = {r(i, 0), r(i, 1), r(i, 2)};
+    points = storage;
+  } else {
+    const auto r = py::reinterpret_borrow<py::array_t<double>>(arr).unchecked<2>();
+    storage.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      storage[i] = {static_cast<float>(r(i, 0)), static_cast<float>(r(i, 1)), static_cast<float>(r(i, 2))};
+    }
+    points = storage;
+  }
+  if (mode == NonFinite::kRaise) {
+    // Over the points as the library reads them: a float64 beyond float's range is infinite too.
+    for (std::size_t i = 0; i < n; ++i) {
+      if (points[i].allFinite()) continue;
+      const Point3f& p = points[i];
+      throw py::value_error(format("%s: row %zu is not finite (%g, %g, %g); pass non_finite='drop' to drop such "
+                                   "points and count them, as the CLI does",
+                                   what, i, static_cast<double>(p.x()), static_cast<double>(p.y()),
+                                   static_cast<double>(p.z())));
+    }
+  }
+  return points;
+}
+
+/// A 4×4 array (any real dtype) as a rigid pose, checked by the library (rigid_pose).
+Pose pose_of(const py::handle& obj, const char* what) {
+  // ensure() converts any array-like of numbers and gives a null array for anything else.
+  const auto m = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(obj);
+  if (!m || m.ndim() != 2 || m.shape(0) != 4 || m.shape(1) != 4) {
+    throw py::value_error(format("%s must be a 4x4 matrix of numbers", what));
+  }
+  Eigen::Matrix4d matrix;
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) matrix(r, c) = m.at(r, c);
+  try {
+    return rigid_pose(matrix);
+  } catch (const Error& e) {
+    throw py::value_error(std::string(what) + ": " + e.what());
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Arrays out
+
+py::array_t<float> points_array(const PointCloud& cloud) {
+  py::array_t<float> out({static_cast<py::ssize_t>(cloud.size()), py::ssize_t{3}});
+  if (!cloud.empty()) std::memcpy(out.mutable_data(), cloud.data(), cloud.size() * sizeof(Point3f));
+  return out;
+}
+
+py::array_t<double> poses_array(const PoseList& poses) {
+  py::array_t<double> out({static_cast<py::ssize_t>(poses.size()), py::ssize_t{4}, py::ssize_t{4}});
+  auto w = out.mutable_unchecked<3>();
+  for (std::size_t k = 0; k < poses.size(); ++k) {
+    const Eigen::Matrix4d m = poses[k].matrix();
+    for (int r = 0; r < 4; ++r)
+      for (int c = 0; c < 4; ++c) w(static_cast<py::ssize_t>(k), r, c) = m(r, c);
+  }
+  return out;
+}
+
+py::dict scan_stats_dict(const ScanStats& s) {
+  py::dict d;
+  d["points_in"] = s.points_in;
+  d["points_kept"] = s.points_kept;
+  d["dropped_non_finite"] = s.dropped_non_finite;
+  d["dropped_range"] = s.dropped_range;
+  d["scan_cells"] = s.scan_cells;
+  d["scan_hvoxels"] = s.scan_hvoxels;
+  d["rays"] = s.rays;
+  d["free_cells"] = s.free_cells;
+  d["extrusion_removed"] = s.extrusion.removed;
+  return d;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Mappers and maps
+
+/// A Mapper or a HybridMapper with the lock that lets integrate() run without the GIL while
+/// other Python threads query the map or integrate into other mappers.
+struct MapperBox {
+  std::mutex mutex;
+  std::optional<Mapper> mapper;
+  std::optional<HybridMapper> hybrid;
+
+  [[nodiscard]] const HMap& map() const { return hybrid ? hybrid->map() : mapper->map(); }
+};
+
+struct PyMapper {
+  std::shared_ptr<MapperBox> box;
+};
+struct PyHybridMapper {
+  std::shared_ptr<MapperBox> box;
+};
+
+/// A map to query: loaded from a file (owned), or a mapper's map, live (later scans show in it).
+class Map {
+ public:
+  explicit Map(MapFile file) : file_(std::make_shared<MapFile>(std::move(file))) {}
+  explicit Map(std::shared_ptr<MapperBox> live) : live_(std::move(live)) {}
+
+  /// Calls f(const HMap&, const OccupancyGrid* (null without one), span of ground patches)
+  /// with the mapper's lock held.
+  template <typename F>
+  decltype(auto) read(F&& f) const {
+    if (file_) {
+      return f(file_->map, file_->grid ? &*file_->grid : nullptr, std::span<const GroundPatch>(file_->ground));
+    }
+    const std::scoped_lock lock(live_->mutex);
+    if (live_->hybrid) {
+      const HybridMapper& h = *live_->hybrid;
+      return f(h.map(), &h.grid(), std::span<const GroundPatch>(h.ground_patches()));
+    }
+    return f(live_->mapper->map(), static_cast<const OccupancyGrid*>(nullptr), std::span<const GroundPatch>());
+  }
+
+ private:
+  std::shared_ptr<MapFile> file_;
+  std::shared_ptr<MapperBox> live_;
+};
+
+void save(const Map& m, const std::filesystem::path& path) {
+  m.read([&](const HMap& map, const OccupancyGrid* grid, std::span<const GroundPatch> ground) {
+    py::gil_scoped_release release;
+    if (grid == nullptr && ground.empty()) {
+      save_hmap(path, map);
+    } else {
+      save_hmap(path, map, ground, grid);
+    }
+  });
+}
+
+py::dict stats_dict(const Map& m) {
+  return m.read([](const HMap& map, const OccupancyGrid* grid, std::span<const GroundPatch> ground) {
+    const MapStats s = map.stats();
+    py::dict d;
+    d["cells"] = s.cells;
+    d["hvoxels"] = s.hvoxels;
+    d["tiles"] = s.tiles;
+    d["memory_bytes"] = s.memory_bytes;
+    d["cell_size"] = map.cell_size();
+    if (s.bounds.isEmpty()) {
+      d["bounds"] = py::none();
+    } else {
+      const Eigen::Vector3d lo = s.bounds.min(), hi = s.bounds.max();
+      d["bounds"] = py::make_tuple(py::make_tuple(lo.x(), lo.y(), lo.z()), py::make_tuple(hi.x(), hi.y(), hi.z()));
+    }
+    d["ground_patches"] = ground.size();
+    d["grid_cells"] = grid == nullptr ? py::object(py::none()) : py::object(py::int_(grid->known_cells()));
+    return d;
+  });
+}
+
+py::array_t<bool> occupied(const Map& m, const py::handle& xyz) {
+  const py::array arr = checked_points(xyz, "xyz");
+  const auto q = py::array_t<double, py::array::forcecast>::ensure(arr).unchecked<2>();
+  py::array_t<bool> out(q.shape(0));
+  auto w = out.mutable_unchecked<1>();
+  m.read([&](const HMap& map, const OccupancyGrid*, std::span<const GroundPatch>) {
+    for (py::ssize_t i = 0; i < q.shape(0); ++i) w(i) = map.occupied(q(i, 0), q(i, 1), q(i, 2));
+    return 0;
+  });
+  return out;
+}
+
+py::array column(const Map& m, double x, double y) {
+  return m.read([&](const HMap& map, const OccupancyGrid*, std::span<const GroundPatch>) {
+    const ColumnView c = map.column(x, y);
+    py::array_t<HVoxel> out(static_cast<py::ssize_t>(c.size()));
+    if (!c.empty()) std::memcpy(out.mutable_data(), c.data(), c.size() * sizeof(HVoxel));
+    return py::array(out);
+  });
+}
+
+/// One HVoxel with its cell, for Map.hvoxels().
+struct CellHVoxel {
+  std::int32_t i, j;
+  float z_min, z_max, count, density;
+};
+
+py::array hvoxels_of(const Map& m) {
+  return m.read([](const HMap& map, const OccupancyGrid*, std::span<const GroundPatch>) {
+    std::vector<CellHVoxel> all;
+    map.for_each_column([&](const CellKey& k, const ColumnView& c) {
+      for (const HVoxel& v : c) all.push_back({k.i, k.j, v.z_min, v.z_max, v.count, v.density});
+    });
+    // The tiles come in no particular order: by cell, then height, the same for the same map.
+    std::stable_sort(all.begin(), all.end(), [](const CellHVoxel& a, const CellHVoxel& b) {
+      return a.i != b.i ? a.i < b.i : a.j < b.j;
+    });
+    py::array_t<CellHVoxel> out(static_cast<py::ssize_t>(all.size()));
+    if (!all.empty()) std::memcpy(out.mutable_data(), all.data(), all.size() * sizeof(CellHVoxel));
+    return py::array(out);
+  });
+}
+
+py::array_t<float> recover(const Map& m, std::optional<double> z_step) {
+  return m.read([&](const HMap& map, const OccupancyGrid*, std::span<const GroundPatch>) {
+    const double step = z_step.value_or(map.cell_size());  // the CLI's default (export --points)
+    if (!(step >= 1e-3 && step <= 100.0)) {
+      throw py::value_error(format("z_step = %g m is out of its range [0.001, 100] m", step));
+    }
+    PointCloud points;
+    {
+      py::gil_scoped_release release;
+      points = recover_points(map, step);
+    }
+    return points_array(points);
+  });
+}
+
+/// The 2D occupancy grid as a dense array with where it lies.
+struct Grid2D {
+  py::array_t<float> probability;  ///< (height, width); [row, col] is the cell at x = ox + (col + ½)·res, y = oy + (row + ½)·res
+  std::pair<double, double> origin;  ///< [m] lower-left corner of cell [0, 0]
+  double resolution = 0.0;           ///< [m]
+};
+
+std::optional<Grid2D> grid_of(const Map& m) {
+  return m.read([](const HMap&, const OccupancyGrid* grid, std::span<const GroundPatch>) -> std::optional<Grid2D> {
+    if (grid == nullptr) return std::nullopt;
+    const GridRaster r = raster(*grid);
+    Grid2D g;
+    g.probability = py::array_t<float>({static_cast<py::ssize_t>(r.height), static_cast<py::ssize_t>(r.width)});
+    if (!r.probability.empty()) std::memcpy(g.probability.mutable_data(), r.probability.data(), r.probability.size() * sizeof(float));
+    g.origin = {r.i_min * r.cell_size, r.j_min * r.cell_size};
+    g.resolution = r.cell_size;
+    return g;
+  });
+}
+
+py::dict ground_of(const Map& m) {
+  return m.read([](const HMap&, const OccupancyGrid*, std::span<const GroundPatch> ground) {
+    const auto n = static_cast<py::ssize_t>(ground.size());
+    py::array_t<double> center({n, py::ssize_t{3}}), normal({n, py::ssize_t{3}});
+    py::array_t<double> half_size(n);
+    py::array_t<std::int32_t> parent(n);
+    auto c = center.mutable_unchecked<2>();
+    auto nm = normal.mutable_unchecked<2>();
+    auto h = half_size.mutable_unchecked<1>();
+    auto p = parent.mutable_unchecked<1>();
+    for (py::ssize_t k = 0; k < n; ++k) {
+      const GroundPatch& g = ground[static_cast<std::size_t>(k)];
+      for (int d = 0; d < 3; ++d) {
+        c(k, d) = g.center[d];
+        nm(k, d) = g.normal[d];
+      }
+      h(k) = g.half_size;
+      p(k) = g.parent;
+    }
+    py::dict d;
+    d["center"] = center;
+    d["normal"] = normal;
+    d["half_size"] = half_size;
+    d["parent"] = parent;
+    return d;
+  });
+}
+
+/// Integrates one scan without the GIL, under the mapper's lock.
+template <typename Integrate>
+auto integrate_scan(MapperBox& box, const py::handle& points, const py::handle& pose, const std::string& non_finite,
+                    Integrate&& integrate) {
+  const NonFinite mode = non_finite_mode(non_finite);
+  const py::array arr = checked_points(points, "points");
+  const Pose T_map_sensor = pose_of(pose, "T_map_sensor");
+  PointCloud storage;
+  const std::span<const Point3f> pts = points_of(arr, storage, mode, "points");
+  py::gil_scoped_release release;  // `arr` keeps the viewed buffer alive meanwhile
+  const std::scoped_lock lock(box.mutex);
+  return integrate(pts, T_map_sensor);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Parameters
+
+std::vector<std::string> param_names() {
+  Params p;
+  std::vector<std::string> names;
+  for (const auto& r : param_refs(p)) names.push_back(r.name);
+  return names;
+}
+
+/// Sets one parameter and validates the whole (the library's checks and messages); on failure
+/// `params` is left as it was.
+void set_validated(Params& params, const std::string& name, double value) {
+  Params changed = params;
+  set_param(changed, name, value);
+  validate(changed);
+  params = changed;
+}
+
+py::dict describe(const std::string& name) {
+  Params p;
+  for (const auto& r : param_refs(p)) {
+    if (r.name != name) continue;
+    py::dict d;
+    d["name"] = r.name;
+    d["unit"] = r.unit;
+    d["description"] = r.description;
+    d["default"] = r.get();
+    d["range"] = r.range.text();
+    return d;
+  }
+  (void)get_param(p, name);  // throws the library's "unknown parameter" message
+  return {};
+}
+
+}  // namespace
+
+PYBIND11_MODULE(_hmap, m) {
+  PYBIND11_NUMPY_DTYPE(HVoxel, z_min, z_max, count, density);  // a column as a structured array
+  PYBIND11_NUMPY_DTYPE(CellHVoxel, i, j, z_min, z_max, count, density);
+  m.doc() = "hmap: height-voxel maps (HMAP), 2D occupancy and ground patches from 3D point clouds";
+
+  // hmap::Error and hmap::InputError: every library message, as ValueError subclasses (the
+  // caller or the input caused them). InputError after Error: the later translator runs first.
+  static py::exception<Error> error(m, "Error", PyExc_ValueError);
+  static py::exception<InputError> input_error(m, "InputError", error.ptr());
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const InputError& e) {
+      input_error(e.what());
+    } catch (const Error& e) {
+      error(e.what());
+    }
+  });
+
+  py::class_<Params>(m, "Params", "Every parameter of hmap, from a preset ('indoor' or 'outdoor').")
+      .def(py::init([](const std::string& preset_name) { return preset(preset_name); }), py::arg("preset") = "outdoor")
+      .def("get", [](const Params& p, const std::string& name) { return get_param(p, name); }, py::arg("name"),
+           "The value of a parameter by its dotted name ('map.cell_size').")
+      .def("set", &set_validated, py::arg("name"), py::arg("value"),
+           "Sets a parameter, validated as the CLI validates it; raises ValueError (hmap.Error) with the library's "
+           "message and leaves the parameters unchanged when the name is unknown or the value is out of range.")
+      .def("update",
+           [](Params& p, const py::dict& values) {
+             Params changed = p;
+             for (const auto& [k, v] : values) set_param(changed, py::cast<std::string>(k), py::cast<double>(v));
+             validate(changed);  // once, after all: rules between parameters see the new values together
+             p = changed;
+           },
+           py::arg("values"), "Sets several parameters at once ({'map.min_range': 2, 'map.max_range': 40}), validated together.")
+      .def_static("names", &param_names, "The dotted names of every parameter.")
+      .def_static("describe", &describe, py::arg("name"), "Unit, description, default and range of a parameter.")
+      .def_static("presets", [] { return std::vector<std::string>{"indoor", "outdoor"}; })
+      .def("to_yaml", [](const Params& p) { return params_to_yaml(p); }, "The parameters as the YAML the CLI's --config reads.")
+      .def("copy", [](const Params& p) { return p; })
+      .def("__eq__", [](const Params& a, const Params& b) { return params_to_yaml(a) == params_to_yaml(b); });
+
+  py::class_<Map>(m, "Map", "An HMAP with, when built by a HybridMapper, its 2D grid and ground patches.")
+      .def_static("load", [](const std::filesystem::path& path) {
+        MapFile file = [&] { py::gil_scoped_release release; return load_map_file(path); }();
+        return Map(std::move(file));
+      }, py::arg("path"), "Reads a .hmap file (the CLI's `hmap map` output).")
+      .def("save", &save, py::arg("path"), "Writes the map as a .hmap file, atomically.")
+      .def_property_readonly("params", [](const Map& self) {
+        return self.read([](const HMap& map, const OccupancyGrid*, std::span<const GroundPatch>) { return map.params(); });
+      }, "A copy of the parameters the map was built with.")
+      .def_property_readonly("cell_size", [](const Map& self) {
+        return self.read([](const HMap& map, const OccupancyGrid*, std::span<const GroundPatch>) { return map.cell_size(); });
+      })
+      .def("stats", &stats_dict, "Cells, HVoxels, tiles, memory, bounds ((xmin, ymin, zmin), (xmax, ymax, zmax)) or None.")
+      .def("occupied", &occupied, py::arg("xyz"), "For an (N, 3) array of points: a bool array, True inside an HVoxel.")
+      .def("column", &column, py::arg("x"), py::arg("y"),
+           "The HVoxels of the cell holding (x, y), lowest first, as a structured array (z_min, z_max, count, density).")
+      .def("hvoxels", &hvoxels_of,
+           "Every HVoxel of the map with its cell, as a structured array (i, j, z_min, z_max, count, density), by "
+           "cell (i, j) then height; cell (i, j) covers x in [i, i + 1) * cell_size, y in [j, j + 1) * cell_size.")
+      .def("recover_points", &recover, py::arg("z_step") = py::none(),
+           "The height-upsampled point cloud: each HVoxel sampled at its cell centre every z_step metres "
+           "(default: the cell size), as an (N, 3) float32 array.")
+      .def("grid", &grid_of, "The 2D occupancy grid as a Grid2D, or None for a map without one.")
+      .def("ground_patches", &ground_of, "The ground patches as arrays: center (P, 3), normal (P, 3), half_size (P,), parent (P,).");
+
+  py::class_<Grid2D>(m, "Grid2D", "The 2D occupancy grid over the bounding box of its observed cells.")
+      .def_readonly("probability", &Grid2D::probability,
+                    "(rows, cols) float32 occupancy probability, NaN where never observed; [r, c] is the cell at "
+                    "x = origin[0] + (c + 0.5) * resolution, y = origin[1] + (r + 0.5) * resolution (row 0 southernmost)")
+      .def_readonly("origin", &Grid2D::origin, "[m] (x, y) of the lower-left corner of cell [0, 0]")
+      .def_readonly("resolution", &Grid2D::resolution, "[m] cell edge")
+      .def("__repr__", [](const Grid2D& g) {
+        return format("Grid2D(%zd x %zd cells of %g m, origin (%g, %g))", g.probability.shape(0), g.probability.shape(1),
+                      g.resolution, g.origin.first, g.origin.second);
+      });
+
+  py::class_<PyMapper>(m, "Mapper",
+      "The HMAP of section III alone: HVoxels, free space by ray tracing, merging, extrusion.")
+      .def(py::init([](const Params& p) {
+        auto box = std::make_shared<MapperBox>();
+        box->mapper.emplace(p);
+        return PyMapper{box};
+      }), py::arg("params"))
+      .def("integrate", [](PyMapper& self, const py::handle& points, const py::handle& pose, const std::string& non_finite) {
+        MapperBox& box = *self.box;
+        const ScanStats s = integrate_scan(box, points, pose, non_finite,
+            [&](std::span<const Point3f> pts, const Pose& T) { return box.mapper->integrate(pts, T); });
+        return scan_stats_dict(s);
+      }, py::arg("points"), py::arg("T_map_sensor"), py::kw_only(), py::arg("non_finite") = "raise",
+         "Integrates one scan: points (N, 3) float32 or float64 in the sensor frame (C-contiguous float32 is read "
+         "without a copy), T_map_sensor a 4x4 rigid transform. Runs without the GIL. Returns the scan's figures.")
+      .def_property_readonly("map", [](const PyMapper& self) { return Map(self.box); },
+                             "The map, live: later scans show in it.");
+
+  py::class_<PyHybridMapper>(m, "HybridMapper",
+      "The hybrid map of section IV: the HMAP, the ground patches of Alg. 4 and the 2D occupancy grid.")
+      .def(py::init([](const Params& p) {
+        auto box = std::make_shared<MapperBox>();
+        box->hybrid.emplace(p);
+        return PyHybridMapper{box};
+      }), py::arg("params"))
+      .def("integrate", [](PyHybridMapper& self, const py::handle& points, const py::handle& pose, const std::string& non_finite) {
+        MapperBox& box = *self.box;
+        const HybridScanStats s = integrate_scan(box, points, pose, non_finite,
+            [&](std::span<const Point3f> pts, const Pose& T) { return box.hybrid->integrate(pts, T); });
+        py::dict d = scan_stats_dict(s.map);
+        d["ground_accepted"] = s.ground.accepted;
+        d["grid_rays"] = s.occupancy.rays;
+        d["grid_cells"] = s.occupancy.cells;
+        d["grid_no_ground"] = s.occupancy.no_ground;
+        return d;
+      }, py::arg("points"), py::arg("T_map_sensor"), py::kw_only(), py::arg("non_finite") = "raise",
+         "Integrates one scan into the HMAP, the ground patches and the 2D grid; as Mapper.integrate.")
+      .def_property_readonly("map", [](const PyHybridMapper& self) { return Map(self.box); },
+                             "The map with its grid and ground patches, live: later scans show in it.");
+
+  py::module_ io = m.def_submodule("io", "Readers of point clouds and trajectories");
+  io.def("read_cloud", [](const std::filesystem::path& path) {
+    PointCloud cloud = [&] { py::gil_scoped_release release; return read_cloud(path); }();
+    return points_array(cloud);
+  }, py::arg("path"),
+     "A point cloud file by its extension (.pcd .ply .bin (KITTI) .xyz .txt .csv .pts .vtk) as an (N, 3) float32 "
+     "array; non-finite points are dropped, as the CLI drops them.");
+  io.def("read_poses", [](const std::filesystem::path& path) { return poses_array(read_poses(path)); }, py::arg("path"),
+         "A KITTI or TUM trajectory as an (N, 4, 4) float64 array of T_map_sensor.");
+}
+
+}  // namespace hmap::python
