@@ -171,6 +171,10 @@ AttitudeFit AttitudeRefiner::refine(const ScanHVoxels& scan_level, const HMap& m
 
   const double c = std::cos(yaw);
   const double sn = std::sin(yaw);
+  // The samples lie within max_range of (x, y) (the correction turns them by a few degrees at
+  // most); cells outside the view are looked up in the map all the same.
+  const auto half = static_cast<std::int32_t>(std::ceil(params_.map.max_range / s)) + 2;
+  view_.reset(map, map.key_of(x, y).value_or(CellKey{}), half);
   Eigen::Matrix3d R = Eigen::Matrix3d::Identity();  // the correction, applied in the level frame
   double dz = 0.0;
   const double lever_sq = sp.attitude_min_lever * sp.attitude_min_lever;
@@ -186,7 +190,8 @@ AttitudeFit AttitudeRefiner::refine(const ScanHVoxels& scan_level, const HMap& m
     for (const Sample& smp : samples_) {
       const Eigen::Vector3d q = R * smp.p;  // relative to the sensor, corrected
       const double mz = o.z() + q.z() + dz;
-      const ColumnView col = map.column(x + c * q.x() - sn * q.y(), y + sn * q.x() + c * q.y());
+      const std::optional<CellKey> key = map.key_of(x + c * q.x() - sn * q.y(), y + sn * q.x() + c * q.y());
+      const std::span<const HVoxel> col = key ? view_.column(*key) : std::span<const HVoxel>{};
       double best = gate;
       double surface = 0.0;
       bool found = false;
