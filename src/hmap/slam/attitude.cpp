@@ -119,8 +119,13 @@ std::optional<Eigen::Vector3d> floor_normal(const ScanHVoxels& scan_sensor, cons
     if (n.z() < 0) n = -n;
     if (n.z() < cos_max) continue;
     const double d = n.dot(a);
+    // Counted until even the remaining samples could not bring it to the best (a tie still can
+    // win, below): the same plane is kept, at about half the scoring on a scan's bad hypotheses.
     std::size_t count = 0;
-    for (std::size_t k = 0; k < pts.size(); k += score_stride) count += std::abs(n.dot(pts[k]) - d) <= tolerance ? 1 : 0;
+    std::size_t remaining = (pts.size() + score_stride - 1) / score_stride;
+    for (std::size_t k = 0; k < pts.size() && count + remaining >= best; k += score_stride, --remaining) {
+      count += std::abs(n.dot(pts[k]) - d) <= tolerance ? 1 : 0;
+    }
     // Ties go to the lower plane: a floor, not a table top above it.
     if (count > best || (count == best && d < best_d)) {
       best = count;
