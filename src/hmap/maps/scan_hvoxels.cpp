@@ -14,6 +14,18 @@ namespace hmap {
 
 namespace {
 constexpr std::ptrdiff_t kRankSortMax = 8;
+
+/// floor_to<std::int32_t>, with a fast path for the cells of a scan: under 2^30 in magnitude the
+/// truncation corrected by one below zero is the floor exactly (-0.0 and integers included), and
+/// costs less than std::floor without SSE4.1 (index_points' per-point hot spot). NaN, infinities
+/// and larger values take floor_to.
+inline std::optional<std::int32_t> floor_cell(double v) {
+  if (std::abs(v) < 1073741824.0) {
+    const auto t = static_cast<std::int32_t>(v);
+    return t - (v < static_cast<double>(t) ? 1 : 0);
+  }
+  return floor_to<std::int32_t>(v);
+}
 }  // namespace
 
 ScanHVoxelizer::ScanHVoxelizer(const MapParams& params) : params_(params) {
@@ -74,8 +86,8 @@ void ScanHVoxelizer::index_points(std::span<const Point3f> points_sensor, const 
       }
       // 2D indexing in the gravity-aligned map frame (convertToMapIndex, withinMapBounds).
       const Eigen::Vector3d p_map = R * p_sensor.cast<double>() + origin;
-      const std::optional<std::int32_t> i = floor_to<std::int32_t>(p_map.x() / cell);
-      const std::optional<std::int32_t> j = floor_to<std::int32_t>(p_map.y() / cell);
+      const std::optional<std::int32_t> i = floor_cell(p_map.x() / cell);
+      const std::optional<std::int32_t> j = floor_cell(p_map.y() / cell);
       // Outside the window only through float rounding at the range limit, or a pose whose
       // linear part is not a rotation (far out, beyond an int32_t: nothing).
       if (!i || !j || std::abs(std::int64_t{*i} - window_.center.i) > window_.half ||

@@ -119,8 +119,13 @@ std::optional<Eigen::Vector3d> floor_normal(const ScanHVoxels& scan_sensor, cons
     if (n.z() < 0) n = -n;
     if (n.z() < cos_max) continue;
     const double d = n.dot(a);
+    // Counted until even the remaining samples could not bring it to the best (a tie still can
+    // win, below): the same plane is kept, at about half the scoring on a scan's bad hypotheses.
     std::size_t count = 0;
-    for (std::size_t k = 0; k < pts.size(); k += score_stride) count += std::abs(n.dot(pts[k]) - d) <= tolerance ? 1 : 0;
+    std::size_t remaining = (pts.size() + score_stride - 1) / score_stride;
+    for (std::size_t k = 0; k < pts.size() && count + remaining >= best; k += score_stride, --remaining) {
+      count += std::abs(n.dot(pts[k]) - d) <= tolerance ? 1 : 0;
+    }
     // Ties go to the lower plane: a floor, not a table top above it.
     if (count > best || (count == best && d < best_d)) {
       best = count;
@@ -171,6 +176,10 @@ AttitudeFit AttitudeRefiner::refine(const ScanHVoxels& scan_level, const HMap& m
 
   const double c = std::cos(yaw);
   const double sn = std::sin(yaw);
+  // The samples lie within max_range of (x, y) (the correction turns them by a few degrees at
+  // most); cells outside the view are looked up in the map all the same.
+  const auto half = static_cast<std::int32_t>(std::ceil(params_.map.max_range / s)) + 2;
+  view_.reset(map, map.key_of(x, y).value_or(CellKey{}), half);
   Eigen::Matrix3d R = Eigen::Matrix3d::Identity();  // the correction, applied in the level frame
   double dz = 0.0;
   const double lever_sq = sp.attitude_min_lever * sp.attitude_min_lever;
@@ -186,7 +195,8 @@ AttitudeFit AttitudeRefiner::refine(const ScanHVoxels& scan_level, const HMap& m
     for (const Sample& smp : samples_) {
       const Eigen::Vector3d q = R * smp.p;  // relative to the sensor, corrected
       const double mz = o.z() + q.z() + dz;
-      const ColumnView col = map.column(x + c * q.x() - sn * q.y(), y + sn * q.x() + c * q.y());
+      const std::optional<CellKey> key = map.key_of(x + c * q.x() - sn * q.y(), y + sn * q.x() + c * q.y());
+      const std::span<const HVoxel> col = key ? view_.column(*key) : std::span<const HVoxel>{};
       double best = gate;
       double surface = 0.0;
       bool found = false;

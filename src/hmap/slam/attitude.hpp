@@ -16,6 +16,7 @@
 #include "hmap/core/params.hpp"
 #include "hmap/maps/hmap.hpp"
 #include "hmap/maps/scan_hvoxels.hpp"
+#include "hmap/slam/hvoxel_metric.hpp"
 
 namespace hmap::slam {
 
@@ -87,6 +88,7 @@ class AttitudeRefiner {
   };
   Params params_;
   std::vector<Sample> samples_;
+  LocalMapView view_;  // the map's tiles around the scan: one hash lookup per tile, not per sample
 };
 
 }  // namespace hmap::slam

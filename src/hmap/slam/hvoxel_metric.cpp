@@ -11,7 +11,9 @@ float interval_iou(const Interval& a, const Interval& b) {
   return uni > 0.0F ? inter / uni : 0.0F;
 }
 
-LayerMatch match_layer(const Interval& layer, std::span<const HVoxel> column, float min_height) {
+namespace {
+// eq. (9), inlined into corner_values: it is called up to 16 times per scan HVoxel whose cells change.
+inline LayerMatch match_layer_inline(const Interval& layer, std::span<const HVoxel> column, float min_height) {
   LayerMatch m;
   float inter_sum = 0.0F;
   float union_sum = 0.0F;
@@ -34,16 +36,10 @@ LayerMatch match_layer(const Interval& layer, std::span<const HVoxel> column, fl
   m.iou = union_sum > 0.0F ? inter_sum / union_sum : 0.0F;
   return m;
 }
+}  // namespace
 
-MetricSample bilinear(const std::array<float, 4>& F, float a, float b, float cell_size) {
-  // F[0] = F00 (x0, y0), F[1] = F10 (x1, y0), F[2] = F01 (x0, y1), F[3] = F11 (x1, y1).
-  MetricSample s;
-  s.value = b * (a * F[3] + (1.0F - a) * F[2]) + (1.0F - b) * (a * F[1] + (1.0F - a) * F[0]);  // eq. (10)
-  // eq. (11), with the paper's ∂/∂y typo fixed (differences along y, weighted along x) and the
-  // cell size made explicit so the gradient is per metre.
-  s.gradient.x() = (b * (F[3] - F[2]) + (1.0F - b) * (F[1] - F[0])) / cell_size;
-  s.gradient.y() = (a * (F[3] - F[1]) + (1.0F - a) * (F[2] - F[0])) / cell_size;
-  return s;
+LayerMatch match_layer(const Interval& layer, std::span<const HVoxel> column, float min_height) {
+  return match_layer_inline(layer, column, min_height);
 }
 
 void LocalMapView::reset(const HMap& map, const CellKey& center, std::int32_t half_cells) {
@@ -59,18 +55,6 @@ void LocalMapView::reset(const HMap& map, const CellKey& center, std::int32_t ha
           map.find_tile({lo.i + ti, lo.j + tj});
     }
   }
-}
-
-std::span<const HVoxel> LocalMapView::column(const CellKey& key) const {
-  const CellKey t = HMap::tile_of(key);
-  const std::int32_t ti = t.i - tile_min_.i;
-  const std::int32_t tj = t.j - tile_min_.j;
-  if (ti >= 0 && tj >= 0 && ti < tiles_wide_ && tj < tiles_wide_) {
-    const HMap::Tile* tile =
-        tiles_[static_cast<std::size_t>(ti) * static_cast<std::size_t>(tiles_wide_) + static_cast<std::size_t>(tj)];
-    return tile != nullptr ? tile->column(HMap::local_index(key)).hvoxels() : std::span<const HVoxel>{};
-  }
-  return map_ != nullptr ? map_->column(key).hvoxels() : std::span<const HVoxel>{};
 }
 
 LayerInterpolator::LayerInterpolator(const Params& params)
@@ -96,7 +80,7 @@ std::array<float, 4> LayerInterpolator::corner_values(const LocalMapView& view, 
   bool all_present = true;
   for (int c = 0; c < 4; ++c) {
     const CellKey k{base.i + (c & 1), base.j + (c >> 1)};
-    corner[static_cast<std::size_t>(c)] = match_layer(layer, view.column(k), min_height_);
+    corner[static_cast<std::size_t>(c)] = match_layer_inline(layer, view.column(k), min_height_);
     all_present = all_present && corner[static_cast<std::size_t>(c)].present;
     F[static_cast<std::size_t>(c)] = corner[static_cast<std::size_t>(c)].iou;
   }
@@ -106,8 +90,24 @@ std::array<float, 4> LayerInterpolator::corner_values(const LocalMapView& view, 
   constexpr int kMaxBlock = 10;  // interpolation_window <= 9
   const int h = half_window_;
   const int block = 2 * h + 2;
-  std::array<LayerMatch, kMaxBlock * kMaxBlock> cells;
-  std::array<bool, kMaxBlock * kMaxBlock> read{};
+  // What eq. (12) needs of a cell: whether the layer is there, and its hull. No default member
+  // initialisers, so that the 100-cell scratch is not cleared on every call (5 % of this function);
+  // a cell is read only after it is written, as `read` says, and only block² of `read` is cleared.
+  struct Hull {
+    bool present;
+    float z_min;
+    float z_max;
+  };
+  std::array<Hull, kMaxBlock * kMaxBlock> cells;
+  std::array<bool, kMaxBlock * kMaxBlock> read;
+  std::fill_n(read.begin(), block * block, false);
+  // The four corners sit at (h, h) .. (h + 1, h + 1) of the block: already read above.
+  for (int c = 0; c < 4; ++c) {
+    const auto idx = static_cast<std::size_t>(((c & 1) + h) * block + (c >> 1) + h);
+    const LayerMatch& m = corner[static_cast<std::size_t>(c)];
+    cells[idx] = {m.present, m.hull.z_min, m.hull.z_max};
+    read[idx] = true;
+  }
   const int w = 2 * h + 1;
   for (int c = 0; c < 4; ++c) {
     if (corner[static_cast<std::size_t>(c)].present) continue;
@@ -123,14 +123,15 @@ std::array<float, 4> LayerInterpolator::corner_values(const LocalMapView& view, 
         const int bj = cj + dj;
         const auto idx = static_cast<std::size_t>(bi * block + bj);
         if (!read[idx]) {
-          cells[idx] = match_layer(layer, view.column({base.i - h + bi, base.j - h + bj}), min_height_);
+          const LayerMatch m = match_layer_inline(layer, view.column({base.i - h + bi, base.j - h + bj}), min_height_);
+          cells[idx] = {m.present, m.hull.z_min, m.hull.z_max};
           read[idx] = true;
         }
         if (!cells[idx].present) continue;
         const float wgt = idw_weight_of_offset_[static_cast<std::size_t>((di + h) * w + dj + h)];
         weight_sum += wgt;
-        z_min += wgt * cells[idx].hull.z_min;
-        z_max += wgt * cells[idx].hull.z_max;
+        z_min += wgt * cells[idx].z_min;
+        z_max += wgt * cells[idx].z_max;
       }
     }
     if (weight_sum <= 0.0F) continue;  // nothing in the layer around: F stays 0

@@ -45,7 +45,17 @@ struct MetricSample {
 /// eq. (10)-(11): bilinear interpolation of F at (a, b) ∈ [0, 1]² between the cell centres, F[0] =
 /// F00 = F(x0, y0), F[1] = F10 = F(x1, y0), F[2] = F01 = F(x0, y1), F[3] = F11 = F(x1, y1); the
 /// gradient is in units of 1/m for a cell of `cell_size` metres.
-[[nodiscard]] MetricSample bilinear(const std::array<float, 4>& F, float a, float b, float cell_size);
+/// Inline: evaluated once per scan HVoxel per Gauss-Newton step.
+[[nodiscard]] inline MetricSample bilinear(const std::array<float, 4>& F, float a, float b, float cell_size) {
+  // F[0] = F00 (x0, y0), F[1] = F10 (x1, y0), F[2] = F01 (x0, y1), F[3] = F11 (x1, y1).
+  MetricSample s;
+  s.value = b * (a * F[3] + (1.0F - a) * F[2]) + (1.0F - b) * (a * F[1] + (1.0F - a) * F[0]);  // eq. (10)
+  // eq. (11), with the paper's ∂/∂y typo fixed (differences along y, weighted along x) and the
+  // cell size made explicit so the gradient is per metre.
+  s.gradient.x() = (b * (F[3] - F[2]) + (1.0F - b) * (F[1] - F[0])) / cell_size;
+  s.gradient.y() = (a * (F[3] - F[1]) + (1.0F - a) * (F[2] - F[0])) / cell_size;
+  return s;
+}
 
 /// The map around one scan, read without hashing: a dense grid of tile pointers covering the
 /// square of `half` cells about a centre; cells outside it are looked up in the map.
@@ -55,7 +65,18 @@ class LocalMapView {
   /// Covers the cells within `half_cells` of `center`. Reuses its buffer across calls.
   void reset(const HMap& map, const CellKey& center, std::int32_t half_cells);
   /// The HVoxels of a cell (empty when nothing was stored there).
-  [[nodiscard]] std::span<const HVoxel> column(const CellKey& key) const;
+  /// Inline: the metric reads up to 16 columns per scan HVoxel whose cells change.
+  [[nodiscard]] std::span<const HVoxel> column(const CellKey& key) const {
+    const CellKey t = HMap::tile_of(key);
+    const std::int32_t ti = t.i - tile_min_.i;
+    const std::int32_t tj = t.j - tile_min_.j;
+    if (ti >= 0 && tj >= 0 && ti < tiles_wide_ && tj < tiles_wide_) {
+      const HMap::Tile* tile =
+          tiles_[static_cast<std::size_t>(ti) * static_cast<std::size_t>(tiles_wide_) + static_cast<std::size_t>(tj)];
+      return tile != nullptr ? tile->column(HMap::local_index(key)).hvoxels() : std::span<const HVoxel>{};
+    }
+    return map_ != nullptr ? map_->column(key).hvoxels() : std::span<const HVoxel>{};
+  }
   [[nodiscard]] const HMap* map() const { return map_; }
 
  private:
