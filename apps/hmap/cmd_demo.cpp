@@ -85,7 +85,7 @@ std::string run_demo_into(const DemoOptions& o, const std::filesystem::path& dir
   const HeightRange range = resolve_range(map, {});
   TopViewport vp;
   RgbImage top = render_top(map, range, 2000, vp, 2.0);
-  draw_path(top, vp, rec.T_world_sensor, 255, 255, 255);
+  draw_paths_and_legend(top, vp, height_legend(range), {{&rec.T_world_sensor, 255, 255, 255, "sensor path (true)"}});
   write_png(dir / "map_top.png", top);
   write_png(dir / "map_oblique.png", render_oblique(map, range, 2000));
 

@@ -90,28 +90,16 @@ void run_render(const RenderOptions& o) {
   } else if (o.layer == "ground") {
     draw_ground_patches(img, vp, file.ground, 255, 255, 255);
   }
-  // First path white on the height view (the truth, by convention), blue on the occupancy layer
-  // (white there is free space); then red, magenta, orange.
   const bool on_grid = o.layer == "occupancy";
-  const std::uint8_t colours[4][3] = {{255, 255, 255}, {255, 40, 40}, {255, 0, 255}, {255, 160, 0}};
-  std::vector<LegendEntry> legend;
-  if (on_grid) {
-    legend = {{255, 255, 255, "free"}, {0, 0, 0, "occupied"}, {205, 205, 205, "unknown"}};
-  } else {
-    std::uint8_t r = 0, g = 0, b = 0;
-    height_colour(0.0, r, g, b);
-    legend.push_back({r, g, b, format("%.2f m", range.z_low)});
-    height_colour(1.0, r, g, b);
-    legend.push_back({r, g, b, format("%.2f m", range.z_high)});
-  }
+  const std::vector<LegendEntry> legend =
+      on_grid ? std::vector<LegendEntry>{{255, 255, 255, "free"}, {0, 0, 0, "occupied"}, {205, 205, 205, "unknown"}}
+              : height_legend(range);
+  std::vector<PathLayer> layers;
   for (std::size_t k = 0; k < paths.size(); ++k) {
-    std::uint8_t c[3] = {colours[std::min<std::size_t>(k, 3)][0], colours[std::min<std::size_t>(k, 3)][1],
-                         colours[std::min<std::size_t>(k, 3)][2]};
-    if (on_grid && k == 0) c[0] = 0, c[1] = 90, c[2] = 255;
-    draw_path(img, vp, paths[k], c[0], c[1], c[2]);
-    legend.push_back({c[0], c[1], c[2], "path " + std::filesystem::path(o.trajectories[k]).filename().string()});
+    const auto c = path_colour(k, on_grid);
+    layers.push_back({&paths[k], c[0], c[1], c[2], "path " + std::filesystem::path(o.trajectories[k]).filename().string()});
   }
-  draw_legend_and_scale(img, vp, legend);
+  draw_paths_and_legend(img, vp, legend, layers);
   write_png(o.out, img);
   if (o.layer == "occupancy") {
     std::printf("wrote %s: %dx%d pixels, %.3f m per pixel; 2D occupancy (free white, occupied black, unknown grey) "

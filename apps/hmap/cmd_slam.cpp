@@ -243,8 +243,10 @@ void run_slam(const SlamOptions& o) {
     const HeightRange range = resolve_range(slam.map(), {});
     TopViewport vp;
     RgbImage picture = render_top(slam.map(), range, 2000, vp, 2.0);
-    if (truth) draw_path(picture, vp, *truth, 255, 255, 255);
-    draw_path(picture, vp, estimate, 255, 0, 255);
+    std::vector<PathLayer> layers;
+    if (truth) layers.push_back({&*truth, 255, 255, 255, "truth (--gt)"});
+    layers.push_back({&estimate, 255, 0, 255, "estimate"});
+    draw_paths_and_legend(picture, vp, height_legend(range), layers);
     write_png(dir / "trajectory.png", picture);
   });
 

@@ -371,4 +371,30 @@ void draw_legend_and_scale(RgbImage& image, const TopViewport& viewport, const s
   draw_text(image, 4 + kMargin, y1 - box_h + 2, label, kText, 0, 0, 0);
 }
 
+std::array<std::uint8_t, 3> path_colour(std::size_t k, bool on_occupancy) {
+  static constexpr std::array<std::array<std::uint8_t, 3>, 4> kColours{
+      {{255, 255, 255}, {255, 40, 40}, {255, 0, 255}, {255, 160, 0}}};
+  if (on_occupancy && k == 0) return {0, 90, 255};
+  return kColours[std::min<std::size_t>(k, kColours.size() - 1)];
+}
+
+std::vector<LegendEntry> height_legend(const HeightRange& range) {
+  std::vector<LegendEntry> legend(2);
+  height_colour(0.0, legend[0].r, legend[0].g, legend[0].b);
+  legend[0].label = format("%.2f m", range.z_low);
+  height_colour(1.0, legend[1].r, legend[1].g, legend[1].b);
+  legend[1].label = format("%.2f m", range.z_high);
+  return legend;
+}
+
+void draw_paths_and_legend(RgbImage& image, const TopViewport& viewport, std::vector<LegendEntry> legend,
+                           const std::vector<PathLayer>& paths) {
+  for (const PathLayer& p : paths) {
+    if (p.poses == nullptr) continue;
+    draw_path(image, viewport, *p.poses, p.r, p.g, p.b);
+    legend.push_back({p.r, p.g, p.b, p.label});
+  }
+  draw_legend_and_scale(image, viewport, legend);
+}
+
 }  // namespace hmap::cli

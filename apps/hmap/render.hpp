@@ -1,6 +1,7 @@
 #pragma once
 // Pictures of maps for people: top-down and oblique views, trajectories drawn over them.
 
+#include <array>
 #include <cmath>
 #include <string>
 #include <string_view>
@@ -91,6 +92,26 @@ struct LegendEntry {
 /// white box with a black frame so they read on any background. Pictures too small to hold them
 /// are left as they are.
 void draw_legend_and_scale(RgbImage& image, const TopViewport& viewport, const std::vector<LegendEntry>& legend);
+
+/// A path to draw over a top view, in its colour, with its legend label.
+struct PathLayer {
+  const PoseList* poses = nullptr;
+  std::uint8_t r = 255, g = 255, b = 255;
+  std::string label;
+};
+
+/// The colour of the k-th path of a top view: white on the height view (the truth, by convention),
+/// blue (0, 90, 255) on the occupancy layer, where white is free space and black occupied; then red,
+/// magenta, orange on both.
+[[nodiscard]] std::array<std::uint8_t, 3> path_colour(std::size_t k, bool on_occupancy);
+
+/// The height colouring's two ends as legend entries ("z_low m" blue, "z_high m" red).
+[[nodiscard]] std::vector<LegendEntry> height_legend(const HeightRange& range);
+
+/// Draws each path (draw_path), adds it to `legend` and draws the legend and the scale bar
+/// (draw_legend_and_scale): every top view a command writes goes through here.
+void draw_paths_and_legend(RgbImage& image, const TopViewport& viewport, std::vector<LegendEntry> legend,
+                           const std::vector<PathLayer>& paths);
 
 /// The scale bar's length [m] for a picture `width_m` wide: the largest 1, 2 or 5 × 10^k at most a fifth of it.
 [[nodiscard]] double scale_bar_length(double width_m);

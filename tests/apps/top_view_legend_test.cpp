@@ -1,0 +1,124 @@
+// Every top view a command writes (render, slam's trajectory.png, the demo's map_top.png) draws its
+// paths in a colour that stands out from what is under them, and names each colour in a legend
+// beside a scale bar (issue 17: "pictures of the occupancy layer show the trajectory in a colour
+// that stands out, with a legend and a scale bar").
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <cstdlib>
+
+#include "render.hpp"
+#include "text.hpp"
+
+namespace hmap::cli {
+namespace {
+
+std::array<std::uint8_t, 3> pixel(const RgbImage& img, int x, int y) {
+  const std::size_t k = (static_cast<std::size_t>(y) * static_cast<std::size_t>(img.width) + static_cast<std::size_t>(x)) * 3;
+  return {img.rgb[k], img.rgb[k + 1], img.rgb[k + 2]};
+}
+
+int black_in_row(const RgbImage& img, int y, int x0, int x1) {
+  int n = 0;
+  for (int x = x0; x < x1; ++x) n += pixel(img, x, y) == std::array<std::uint8_t, 3>{0, 0, 0} ? 1 : 0;
+  return n;
+}
+
+/// The largest difference in one channel: how far a path colour stands from a background.
+int contrast(const std::array<std::uint8_t, 3>& a, const std::array<std::uint8_t, 3>& b) {
+  int d = 0;
+  for (int c = 0; c < 3; ++c) d = std::max(d, std::abs(static_cast<int>(a[static_cast<std::size_t>(c)]) - b[static_cast<std::size_t>(c)]));
+  return d;
+}
+
+PoseList straight_path(double x0, double x1, double y) {
+  PoseList poses;
+  for (double x = x0; x <= x1 + 1e-9; x += 1.0) {
+    Pose T = Pose::Identity();
+    T.translation() = Eigen::Vector3d(x, y, 0.0);
+    poses.push_back(T);
+  }
+  return poses;
+}
+
+TEST(TopViewLegend, OccupancyPathStandsOutAndIsNamedBesideAScaleBar) {
+  // 50 m x 40 m at 0.1 m per pixel, all unknown (map_server's grey), a path along y = 20 m.
+  const TopViewport vp = viewport_over(0.0, 0.0, 50.0, 40.0, 0.1, 1000);
+  ASSERT_EQ(vp.width, 500);
+  ASSERT_EQ(vp.height, 400);
+  RgbImage img(vp.width, vp.height, 205);
+  const PoseList path = straight_path(10.0, 40.0, 20.0);
+  const auto c = path_colour(0, /*on_occupancy=*/true);
+  // The occupancy layer is white (free), black (occupied) and grey (unknown): the path is none of them.
+  for (const std::array<std::uint8_t, 3> background : {std::array<std::uint8_t, 3>{255, 255, 255},
+                                                       std::array<std::uint8_t, 3>{0, 0, 0},
+                                                       std::array<std::uint8_t, 3>{205, 205, 205}}) {
+    EXPECT_GE(contrast(c, background), 150);
+  }
+  const std::vector<LegendEntry> layer{{255, 255, 255, "free"}, {0, 0, 0, "occupied"}, {205, 205, 205, "unknown"}};
+  draw_paths_and_legend(img, vp, layer, {{&path, c[0], c[1], c[2], "path poses.txt"}});
+
+  // On the path (x = 25 m, y = 20 m: pixel 250, 200), in its colour.
+  EXPECT_EQ(pixel(img, 250, 200), c);
+  EXPECT_EQ(pixel(img, 250, 150), (std::array<std::uint8_t, 3>{205, 205, 205})) << "away from the path: untouched";
+
+  // The legend (draw_legend_and_scale: a box at (4, 4), 5 px margin, a 10 px swatch per line): the
+  // three layer colours, then the path's, in that order.
+  const int line = std::max(10, measure_text("", 13).height) + 3;
+  const std::array<std::array<std::uint8_t, 3>, 4> expected{
+      {{255, 255, 255}, {0, 0, 0}, {205, 205, 205}, {c[0], c[1], c[2]}}};
+  for (int k = 0; k < 4; ++k) {
+    const int sy = 4 + 5 + k * line + (line - 3 - 10) / 2;
+    EXPECT_EQ(pixel(img, 4 + 5 + 5, sy + 5), expected[static_cast<std::size_t>(k)]) << "legend line " << k;
+    EXPECT_EQ(pixel(img, 4 + 5 - 1, sy + 5), (std::array<std::uint8_t, 3>{0, 0, 0})) << "swatch " << k << " framed";
+  }
+  // The fifth line does not exist: below the box's frame the grid again.
+  const int box_bottom = 4 + 2 * 5 + 4 * line;
+  EXPECT_EQ(pixel(img, 14, box_bottom + 3), (std::array<std::uint8_t, 3>{205, 205, 205}));
+
+  // The scale bar: 50 m wide -> 10 m, 100 px, in the row 10 px above the bottom, from x = 9.
+  ASSERT_DOUBLE_EQ(scale_bar_length(50.0), 10.0);
+  EXPECT_EQ(black_in_row(img, img.height - 10, 9, 109), 100);
+  EXPECT_EQ(black_in_row(img, img.height - 10, 110, 112), 0);
+}
+
+TEST(TopViewLegend, HeightViewPathsAreWhiteThenRedAndTheHeightEndsAreNamed) {
+  const TopViewport vp = viewport_over(0.0, 0.0, 30.0, 30.0, 0.1, 1000);
+  RgbImage img(vp.width, vp.height, 0);
+  const PoseList truth = straight_path(5.0, 25.0, 10.0);
+  const PoseList estimate = straight_path(5.0, 25.0, 20.0);
+  const auto first = path_colour(0, false);
+  const auto second = path_colour(1, false);
+  EXPECT_EQ(first, (std::array<std::uint8_t, 3>{255, 255, 255}));
+  EXPECT_GE(contrast(first, second), 150);
+  HeightRange range{-1.0, 3.0};
+  const std::vector<LegendEntry> legend = height_legend(range);
+  ASSERT_EQ(legend.size(), 2U);
+  EXPECT_EQ(legend[0].label, "-1.00 m");
+  EXPECT_EQ(legend[1].label, "3.00 m");
+  std::uint8_t r = 0, g = 0, b = 0;
+  height_colour(1.0, r, g, b);
+  EXPECT_EQ((std::array<std::uint8_t, 3>{legend[1].r, legend[1].g, legend[1].b}), (std::array<std::uint8_t, 3>{r, g, b}));
+  draw_paths_and_legend(img, vp, legend,
+                        {{&truth, first[0], first[1], first[2], "truth"}, {&estimate, second[0], second[1], second[2], "estimate"}});
+  EXPECT_EQ(pixel(img, 150, 200), first);   // y = 10 m
+  EXPECT_EQ(pixel(img, 150, 100), second);  // y = 20 m
+  const int line = std::max(10, measure_text("", 13).height) + 3;
+  for (int k = 0; k < 4; ++k) {
+    const std::array<std::uint8_t, 3> want = k < 2 ? std::array<std::uint8_t, 3>{legend[static_cast<std::size_t>(k)].r,
+                                                                                  legend[static_cast<std::size_t>(k)].g,
+                                                                                  legend[static_cast<std::size_t>(k)].b}
+                                                   : (k == 2 ? first : second);
+    EXPECT_EQ(pixel(img, 14, 4 + 5 + k * line + (line - 3 - 10) / 2 + 5), want) << "legend line " << k;
+  }
+  // A null path is skipped, not drawn and not named.
+  RgbImage empty(vp.width, vp.height, 0);
+  draw_paths_and_legend(empty, vp, {}, {{nullptr, 255, 0, 0, "nothing"}});
+  EXPECT_EQ(pixel(empty, 14, 4 + 5 + (line - 3 - 10) / 2 + 5), (std::array<std::uint8_t, 3>{0, 0, 0}))
+      << "no legend box without entries";
+}
+
+}  // namespace
+}  // namespace hmap::cli
