@@ -72,7 +72,7 @@ void fill_quad(RgbImage& img, const std::array<Eigen::Vector2d, 4>& q, std::uint
   }
 }
 
-/// A scale bar in the bottom-left corner of a top-down picture of `m_per_px` metres per pixel.
+/// A scale bar in a panel to the right of a top-down picture of `m_per_px` metres per pixel.
 void draw_scale(RgbImage& img, double m_per_px) {
   TopViewport viewport;
   viewport.m_per_px = m_per_px;

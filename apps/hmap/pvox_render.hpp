@@ -17,7 +17,7 @@ struct PvoxView {
 };
 
 /// Top view: per pixel the highest occupied voxel, coloured by height, darker for lower p; a
-/// scale bar (draw_legend_and_scale) in the bottom-left corner.
+/// scale bar (draw_legend_and_scale) in a panel to the right of the map.
 [[nodiscard]] RgbImage render_pvox_top(const pvox::VoxelMap& map, const PvoxView& view);
 /// Isometric view from the south-west, 35° up: each occupied voxel a shaded cube, height-coloured.
 [[nodiscard]] RgbImage render_pvox_iso(const pvox::VoxelMap& map, const PvoxView& view);

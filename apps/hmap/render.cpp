@@ -336,39 +336,63 @@ void framed_box(RgbImage& img, int x0, int y0, int x1, int y1) {
 }
 }  // namespace
 
-void draw_legend_and_scale(RgbImage& image, const TopViewport& viewport, const std::vector<LegendEntry>& legend) {
+LegendPanel legend_panel(const TopViewport& viewport, const std::vector<LegendEntry>& legend, int map_width) {
   constexpr int kText = 13;  // [px] font height
-  constexpr int kSwatch = 10;
-  constexpr int kMargin = 5;
-  const int line = std::max(kSwatch, measure_text("", kText).height) + 3;  // [px] per legend line
+  LegendPanel p;
+  p.line = std::max(LegendPanel::kSwatch, measure_text("", kText).height) + 3;
   int longest = 0;
   for (const LegendEntry& e : legend) longest = std::max(longest, measure_text(e.label, kText).width);
-  const int legend_w = kMargin * 3 + kSwatch + longest;
-  const int legend_h = kMargin * 2 + static_cast<int>(legend.size()) * line;
-  if (!legend.empty() && image.width >= legend_w + 8 && image.height >= legend_h + 40) {
-    framed_box(image, 4, 4, 4 + legend_w, 4 + legend_h);
+  p.legend_w = legend.empty() ? 0 : LegendPanel::kMargin * 3 + LegendPanel::kSwatch + longest;
+  p.legend_h = legend.empty() ? 0 : LegendPanel::kMargin * 2 + static_cast<int>(legend.size()) * p.line;
+  p.bar_m = scale_bar_length(map_width * viewport.m_per_px);
+  p.bar_px = static_cast<int>(std::lround(p.bar_m / viewport.m_per_px));
+  if (p.bar_px < 10) p.bar_px = 0;  // too short to read: no bar
+  p.label = format("%g m", p.bar_m);
+  const TextSize label_size = measure_text(p.label, kText);
+  p.box_w = p.bar_px > 0 ? std::max(p.bar_px, label_size.width) + 2 * LegendPanel::kMargin : 0;
+  p.box_h = p.bar_px > 0 ? label_size.height + 14 : 0;
+  const int inner = std::max(p.legend_w, p.box_w);
+  p.width = inner > 0 ? inner + 9 : 0;  // a 1 px rule beside the map, 4 px on either side of the boxes
+  return p;
+}
+
+void draw_legend_and_scale(RgbImage& image, const TopViewport& viewport, const std::vector<LegendEntry>& legend) {
+  constexpr int kText = 13;
+  constexpr int kMargin = LegendPanel::kMargin;
+  constexpr int kSwatch = LegendPanel::kSwatch;
+  const LegendPanel p = legend_panel(viewport, legend, image.width);
+  if (p.width == 0) return;
+  // The panel goes to the right of the map, never over it: on a small map the legend would hide
+  // the map and the path it names.
+  const int map_w = image.width;
+  const int needed_h = (p.legend_h > 0 ? p.legend_h + 8 : 0) + (p.box_h > 0 ? p.box_h + 8 : 0);
+  RgbImage out(map_w + p.width, std::max(image.height, needed_h), 255);
+  for (int y = 0; y < image.height; ++y) {
+    std::copy_n(image.rgb.begin() + static_cast<std::ptrdiff_t>(y) * map_w * 3, static_cast<std::ptrdiff_t>(map_w) * 3,
+                out.rgb.begin() + static_cast<std::ptrdiff_t>(y) * out.width * 3);
+  }
+  fill_box(out, map_w, 0, map_w + 1, out.height, 0, 0, 0);  // the rule between map and panel
+  const int x0 = map_w + 5;
+  if (p.legend_h > 0) {
+    framed_box(out, x0, 4, x0 + p.legend_w, 4 + p.legend_h);
     for (std::size_t k = 0; k < legend.size(); ++k) {
-      const int y = 4 + kMargin + static_cast<int>(k) * line;
+      const int y = 4 + kMargin + static_cast<int>(k) * p.line;
       const LegendEntry& e = legend[k];
-      const int sy = y + (line - 3 - kSwatch) / 2;
-      fill_box(image, 4 + kMargin - 1, sy - 1, 4 + kMargin + kSwatch + 1, sy + kSwatch + 1, 0, 0, 0);
-      fill_box(image, 4 + kMargin, sy, 4 + kMargin + kSwatch, sy + kSwatch, e.r, e.g, e.b);
-      draw_text(image, 4 + 2 * kMargin + kSwatch, y, e.label, kText, 0, 0, 0);
+      const int sy = y + (p.line - 3 - kSwatch) / 2;
+      fill_box(out, x0 + kMargin - 1, sy - 1, x0 + kMargin + kSwatch + 1, sy + kSwatch + 1, 0, 0, 0);
+      fill_box(out, x0 + kMargin, sy, x0 + kMargin + kSwatch, sy + kSwatch, e.r, e.g, e.b);
+      draw_text(out, x0 + 2 * kMargin + kSwatch, y, e.label, kText, 0, 0, 0);
     }
   }
-  const double length_m = scale_bar_length(image.width * viewport.m_per_px);
-  const int bar_px = static_cast<int>(std::lround(length_m / viewport.m_per_px));
-  const std::string label = format("%g m", length_m);
-  const TextSize label_size = measure_text(label, kText);
-  const int box_w = std::max(bar_px, label_size.width) + 2 * kMargin;
-  const int box_h = label_size.height + 14;
-  if (bar_px < 10 || image.width < box_w + 8 || image.height < box_h + 16) return;
-  const int y1 = image.height - 4;
-  framed_box(image, 4, y1 - box_h, 4 + box_w, y1);
-  fill_box(image, 4 + kMargin, y1 - 8, 4 + kMargin + bar_px, y1 - 5, 0, 0, 0);  // the bar
-  fill_box(image, 4 + kMargin, y1 - 11, 4 + kMargin + 1, y1 - 5, 0, 0, 0);      // its ends
-  fill_box(image, 4 + kMargin + bar_px - 1, y1 - 11, 4 + kMargin + bar_px, y1 - 5, 0, 0, 0);
-  draw_text(image, 4 + kMargin, y1 - box_h + 2, label, kText, 0, 0, 0);
+  if (p.box_h > 0) {
+    const int y1 = out.height - 4;
+    framed_box(out, x0, y1 - p.box_h, x0 + p.box_w, y1);
+    fill_box(out, x0 + kMargin, y1 - 8, x0 + kMargin + p.bar_px, y1 - 5, 0, 0, 0);  // the bar
+    fill_box(out, x0 + kMargin, y1 - 11, x0 + kMargin + 1, y1 - 5, 0, 0, 0);        // its ends
+    fill_box(out, x0 + kMargin + p.bar_px - 1, y1 - 11, x0 + kMargin + p.bar_px, y1 - 5, 0, 0, 0);
+    draw_text(out, x0 + kMargin, y1 - p.box_h + 2, p.label, kText, 0, 0, 0);
+  }
+  image = std::move(out);
 }
 
 std::array<std::uint8_t, 3> path_colour(std::size_t k, bool on_occupancy) {

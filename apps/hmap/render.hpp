@@ -87,10 +87,27 @@ struct LegendEntry {
   std::string label;
 };
 
-/// A legend box (swatches and labels) in the top-left corner and a scale bar (a round length of
-/// about a fifth of the width: 1, 2 or 5 × 10^k m, labelled) in the bottom-left corner, each on a
-/// white box with a black frame so they read on any background. Pictures too small to hold them
-/// are left as they are.
+/// Where draw_legend_and_scale puts things, for a map `map_width` pixels wide: a panel `width`
+/// pixels wide to the right of the map (a 1 px black rule at x = map_width, the boxes from x =
+/// map_width + 5); the legend box at the top (y = 4, `legend_w` × `legend_h`, a line of `line` px
+/// per entry, its swatch kSwatch px square kMargin px in); the scale bar's box at the bottom.
+struct LegendPanel {
+  static constexpr int kMargin = 5;
+  static constexpr int kSwatch = 10;
+  int line = 0, legend_w = 0, legend_h = 0;
+  double bar_m = 0.0;  ///< the scale bar's length [m] (scale_bar_length of the map's width)
+  int bar_px = 0;      ///< 0: too short to draw (under 10 px)
+  std::string label;
+  int box_w = 0, box_h = 0;
+  int width = 0;  ///< the panel's width; 0 when there is nothing to draw
+};
+[[nodiscard]] LegendPanel legend_panel(const TopViewport& viewport, const std::vector<LegendEntry>& legend, int map_width);
+
+/// Widens `image` by a white panel to its right holding a legend box (swatches and labels) at the
+/// top and a scale bar (a round length of about a fifth of the map's width: 1, 2 or 5 × 10^k m,
+/// labelled) at the bottom, so that neither hides any of the map; the image grows taller too when
+/// the map is shorter than the panel needs. The map's pixels keep their place (`viewport` still
+/// applies to them).
 void draw_legend_and_scale(RgbImage& image, const TopViewport& viewport, const std::vector<LegendEntry>& legend);
 
 /// A path to draw over a top view, in its colour, with its legend label.

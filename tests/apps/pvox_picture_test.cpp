@@ -1,5 +1,5 @@
 // The PVOX pictures carry a scale bar (issue 15: "pictures have no legend or scale bar"): drawn
-// where draw_legend_and_scale puts it, as long as the length it names.
+// where draw_legend_and_scale puts it (a panel to the right of the map), as long as the length it names.
 
 #include <gtest/gtest.h>
 
@@ -31,20 +31,24 @@ TEST(PvoxPicture, TopViewHasAScaleBarOfTheLengthItNames) {
   PvoxView view;
   view.max_pixels = 500;  // 10 m on 500 px: 0.02 m per pixel
   const RgbImage top = render_pvox_top(map, view);
-  ASSERT_EQ(top.width, 500);
+  // The map is 500 px square; the scale bar's panel is to its right (draw_legend_and_scale).
+  const LegendPanel panel = legend_panel(TopViewport{0.0, 0.0, 0.02, 500, 500}, {}, 500);
+  ASSERT_GT(panel.width, 0);
+  ASSERT_EQ(top.width, 500 + panel.width);
   ASSERT_EQ(top.height, 500);
-  // 10 m wide: the bar is 2 m (the largest 1, 2, 5 x 10^k within a fifth), 100 px, from x = 9,
-  // in rows height - 12 .. height - 9 (draw_legend_and_scale: 4 px margin, 5 px inside the box).
+  // 10 m wide: the bar is 2 m (the largest 1, 2, 5 x 10^k within a fifth), 100 px, from x = 500 + 10,
+  // in rows height - 12 .. height - 9 (4 px margin, 5 px inside the box).
   ASSERT_DOUBLE_EQ(scale_bar_length(10.0), 2.0);
+  EXPECT_EQ(panel.bar_px, 100);
   const int row = top.height - 10;
-  EXPECT_EQ(black_in_row(top, row, 9, 109), 100);
-  EXPECT_EQ(black_in_row(top, row, 110, 112), 0) << "the box is white beside the bar (its frame at x = 113)";
-  // Above the box the floor's voxels, not a bar.
-  EXPECT_LT(black_in_row(top, top.height / 2, 9, 109), 10);
+  EXPECT_EQ(black_in_row(top, row, 510, 610), 100);
+  EXPECT_EQ(black_in_row(top, row, 611, 613), 0) << "the box is white beside the bar";
+  // The map's own pixels are not covered: no bar across the floor's bottom rows.
+  EXPECT_LT(black_in_row(top, row, 9, 109), 10);
   // The gradient view of the same map: the same bar.
   const RgbImage field = render_pvox_gradient(map, view, 0.05);
-  ASSERT_EQ(field.width, 500);
-  EXPECT_EQ(black_in_row(field, field.height - 10, 9, 109), 100);
+  ASSERT_EQ(field.width, 500 + panel.width);
+  EXPECT_EQ(black_in_row(field, field.height - 10, 510, 610), 100);
 }
 
 }  // namespace

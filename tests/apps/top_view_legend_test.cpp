@@ -58,30 +58,44 @@ TEST(TopViewLegend, OccupancyPathStandsOutAndIsNamedBesideAScaleBar) {
     EXPECT_GE(contrast(c, background), 150);
   }
   const std::vector<LegendEntry> layer{{255, 255, 255, "free"}, {0, 0, 0, "occupied"}, {205, 205, 205, "unknown"}};
+  const LegendPanel panel = legend_panel(vp, {layer[0], layer[1], layer[2], {c[0], c[1], c[2], "path poses.txt"}}, vp.width);
   draw_paths_and_legend(img, vp, layer, {{&path, c[0], c[1], c[2], "path poses.txt"}});
+  // The legend is beside the map, not over it: the picture grew by the panel, the map kept its pixels.
+  ASSERT_EQ(img.width, 500 + panel.width);
+  ASSERT_EQ(img.height, 400);
+  for (int x = 0; x < 500; x += 7) {
+    for (int y = 0; y < 400; y += 7) {
+      if (y >= 197 && y <= 203) continue;  // the path's row
+      ASSERT_EQ(pixel(img, x, y), (std::array<std::uint8_t, 3>{205, 205, 205})) << x << ", " << y;
+    }
+  }
+  for (int y = 0; y < 400; ++y) ASSERT_EQ(pixel(img, 500, y), (std::array<std::uint8_t, 3>{0, 0, 0})) << "the rule";
 
   // On the path (x = 25 m, y = 20 m: pixel 250, 200), in its colour.
   EXPECT_EQ(pixel(img, 250, 200), c);
   EXPECT_EQ(pixel(img, 250, 150), (std::array<std::uint8_t, 3>{205, 205, 205})) << "away from the path: untouched";
 
-  // The legend (draw_legend_and_scale: a box at (4, 4), 5 px margin, a 10 px swatch per line): the
-  // three layer colours, then the path's, in that order.
+  // The legend (draw_legend_and_scale: a box at (505, 4), 5 px margin, a 10 px swatch per line):
+  // the three layer colours, then the path's, in that order.
   const int line = std::max(10, measure_text("", 13).height) + 3;
+  EXPECT_EQ(panel.line, line);
+  const int x0 = 505;
   const std::array<std::array<std::uint8_t, 3>, 4> expected{
       {{255, 255, 255}, {0, 0, 0}, {205, 205, 205}, {c[0], c[1], c[2]}}};
   for (int k = 0; k < 4; ++k) {
     const int sy = 4 + 5 + k * line + (line - 3 - 10) / 2;
-    EXPECT_EQ(pixel(img, 4 + 5 + 5, sy + 5), expected[static_cast<std::size_t>(k)]) << "legend line " << k;
-    EXPECT_EQ(pixel(img, 4 + 5 - 1, sy + 5), (std::array<std::uint8_t, 3>{0, 0, 0})) << "swatch " << k << " framed";
+    EXPECT_EQ(pixel(img, x0 + 5 + 5, sy + 5), expected[static_cast<std::size_t>(k)]) << "legend line " << k;
+    EXPECT_EQ(pixel(img, x0 + 5 - 1, sy + 5), (std::array<std::uint8_t, 3>{0, 0, 0})) << "swatch " << k << " framed";
   }
-  // The fifth line does not exist: below the box's frame the grid again.
+  // The fifth line does not exist: below the box's frame the panel's white.
   const int box_bottom = 4 + 2 * 5 + 4 * line;
-  EXPECT_EQ(pixel(img, 14, box_bottom + 3), (std::array<std::uint8_t, 3>{205, 205, 205}));
+  EXPECT_EQ(panel.legend_h, 2 * 5 + 4 * line);
+  EXPECT_EQ(pixel(img, x0 + 10, box_bottom + 3), (std::array<std::uint8_t, 3>{255, 255, 255}));
 
-  // The scale bar: 50 m wide -> 10 m, 100 px, in the row 10 px above the bottom, from x = 9.
+  // The scale bar: 50 m wide -> 10 m, 100 px, in the row 10 px above the bottom, from x = 510.
   ASSERT_DOUBLE_EQ(scale_bar_length(50.0), 10.0);
-  EXPECT_EQ(black_in_row(img, img.height - 10, 9, 109), 100);
-  EXPECT_EQ(black_in_row(img, img.height - 10, 110, 112), 0);
+  EXPECT_EQ(black_in_row(img, img.height - 10, 510, 610), 100);
+  EXPECT_EQ(black_in_row(img, img.height - 10, 611, 613), 0);
 }
 
 TEST(TopViewLegend, HeightViewPathsAreWhiteThenRedAndTheHeightEndsAreNamed) {
@@ -111,13 +125,22 @@ TEST(TopViewLegend, HeightViewPathsAreWhiteThenRedAndTheHeightEndsAreNamed) {
                                                                                   legend[static_cast<std::size_t>(k)].g,
                                                                                   legend[static_cast<std::size_t>(k)].b}
                                                    : (k == 2 ? first : second);
-    EXPECT_EQ(pixel(img, 14, 4 + 5 + k * line + (line - 3 - 10) / 2 + 5), want) << "legend line " << k;
+    EXPECT_EQ(pixel(img, vp.width + 15, 4 + 5 + k * line + (line - 3 - 10) / 2 + 5), want) << "legend line " << k;
   }
-  // A null path is skipped, not drawn and not named.
+  // A null path is skipped, not drawn and not named: the panel holds the scale bar alone.
   RgbImage empty(vp.width, vp.height, 0);
   draw_paths_and_legend(empty, vp, {}, {{nullptr, 255, 0, 0, "nothing"}});
-  EXPECT_EQ(pixel(empty, 14, 4 + 5 + (line - 3 - 10) / 2 + 5), (std::array<std::uint8_t, 3>{0, 0, 0}))
+  ASSERT_EQ(empty.width, vp.width + legend_panel(vp, {}, vp.width).width);
+  EXPECT_EQ(pixel(empty, vp.width + 15, 4 + 5 + (line - 3 - 10) / 2 + 5), (std::array<std::uint8_t, 3>{255, 255, 255}))
       << "no legend box without entries";
+  // A map a few pixels wide still gets its legend: the picture grows to hold it.
+  const TopViewport tiny = viewport_over(0.0, 0.0, 1.0, 0.5, 0.1, 1000);
+  RgbImage small(tiny.width, tiny.height, 0);
+  draw_paths_and_legend(small, tiny, legend, {});
+  EXPECT_GT(small.width, 2 * tiny.width);
+  EXPECT_GE(small.height, legend_panel(tiny, legend, tiny.width).legend_h + 8);
+  EXPECT_EQ(pixel(small, tiny.width + 15, 4 + 5 + (line - 3 - 10) / 2 + 5),
+            (std::array<std::uint8_t, 3>{legend[0].r, legend[0].g, legend[0].b}));
 }
 
 }  // namespace

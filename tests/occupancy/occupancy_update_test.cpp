@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <optional>
 #include <tuple>
 
 #include <cmath>
@@ -101,6 +102,66 @@ TEST(BelowAlongTest, StretchOfALinearHeightUnderALimit) {
   std::tie(lo, hi) = below_along(0.3, 0.3, 0.3);  // on the limit counts as under
   EXPECT_EQ(lo, 0.0);
   EXPECT_EQ(hi, 1.0);
+}
+
+}  // namespace
+}  // namespace hmap
+
+namespace hmap {
+namespace {
+
+// The grid judged from a finished map (export --pgm), beyond the ground's reach: a wall whose foot
+// stands on the nearest patch's plane is blocked, anything else stays unknown (balm_os0's west
+// wall, whose floor the sensor saw too sparsely for patches).
+TEST(OccupancyFromMapTest, BeyondTheGroundsReachOnlyObstaclesStandingOnItsPlaneAreBlocked) {
+  Params p = indoor_preset();
+  p.map.cell_size = 0.1;
+  p.occupancy.z_plus = 2.0;
+  p.occupancy.z_minus = -0.5;
+  p.occupancy.ground_reach = 3.0;
+  p.occupancy.obstacle_reach = 15.0;
+  p.ground.elevation_threshold = 0.1;
+  // One patch at the origin on a plane rising 2 % along x: z = 0.02 x.
+  const GroundModel ground({GroundPatch{{0.0, 0.0, 0.0}, Eigen::Vector3d(-0.02, 0.0, 1.0).normalized(), 0.5, -1}});
+  HMap map(p);
+  const auto put = [&](double x, double y, std::vector<HVoxel> vs) {
+    const CellKey key = *map.key_of(x, y);
+    TileColumn column = map.column_for_update(key);
+    for (const HVoxel& v : vs) column.insert(column.size(), v);
+    return key;
+  };
+  const auto z = [](double x) { return static_cast<float>(0.02 * x); };
+  // Within reach (2 m): the paper's rules, a wall blocked and bare floor free.
+  const CellKey near_wall = put(2.05, 0.05, {hv(z(2.05), 1.5F, 0.9F)});
+  const CellKey near_floor = put(2.05, 1.05, {hv(z(2.05), z(2.05) + 0.01F, 0.9F)});
+  // Beyond reach (8 m) but within obstacle_reach:
+  const CellKey foot = put(8.05, 0.05, {hv(z(8.05) + 0.05F, 1.5F, 0.9F)});                // on the plane: blocked
+  const CellKey floor_far = put(8.05, 1.05, {hv(z(8.05), z(8.05) + 0.01F, 0.9F)});        // bare floor: unknown
+  const CellKey hanging = put(8.05, 2.05, {hv(z(8.05) + 0.3F, 1.5F, 0.9F)});              // 0.3 m up: unknown
+  const CellKey lower = put(8.05, 3.05, {hv(z(8.05) - 1.0F, z(8.05) - 0.2F, 0.9F)});      // on a floor 1 m down
+  const CellKey stacked = put(8.05, 4.05, {hv(z(8.05), z(8.05) + 0.01F, 0.9F), hv(1.0F, 1.5F, 0.9F)});  // floor under a shelf: blocked
+  // Beyond obstacle_reach (20 m): a wall on the plane stays unknown.
+  const CellKey far_wall = put(20.05, 0.05, {hv(z(20.05), 1.5F, 0.9F)});
+  // A flat extrapolation (the patch's centre height, 0) would put this foot 0.16 m off: the plane's own height is used.
+  ASSERT_GT(z(8.05), p.ground.elevation_threshold);
+
+  const OccupancyGrid grid = occupancy_from_map(map, ground, p, p.occupancy.ground_reach);
+  const float hi = grid.clamp_max_log_odds();
+  const float lo = grid.clamp_min_log_odds();
+  EXPECT_EQ(grid.log_odds_at(near_wall), std::optional<float>(hi));
+  EXPECT_EQ(grid.log_odds_at(near_floor), std::optional<float>(lo));
+  EXPECT_EQ(grid.log_odds_at(foot), std::optional<float>(hi));
+  EXPECT_FALSE(grid.log_odds_at(floor_far).has_value()) << "never free beyond the ground's reach";
+  EXPECT_FALSE(grid.log_odds_at(hanging).has_value());
+  EXPECT_FALSE(grid.log_odds_at(lower).has_value());
+  EXPECT_EQ(grid.log_odds_at(stacked), std::optional<float>(hi)) << "the floor puts it on the plane, the shelf blocks";
+  EXPECT_FALSE(grid.log_odds_at(far_wall).has_value());
+
+  // The reach is the parameter's: at 25 m the far wall is blocked too, at 5 m the foot is not.
+  p.occupancy.obstacle_reach = 25.0;
+  EXPECT_EQ(occupancy_from_map(map, ground, p, p.occupancy.ground_reach).log_odds_at(far_wall), std::optional<float>(hi));
+  p.occupancy.obstacle_reach = 5.0;
+  EXPECT_FALSE(occupancy_from_map(map, ground, p, p.occupancy.ground_reach).log_odds_at(foot).has_value());
 }
 
 }  // namespace

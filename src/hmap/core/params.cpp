@@ -141,6 +141,9 @@ std::vector<ParamRef> param_refs(Params& p) {
   r.push_back(ref("occupancy.clamp_max", "-", "highest occupancy probability kept", o.clamp_max, open(0.5, 1.0)));
   r.push_back(ref("occupancy.ground_reach", "m", "farthest an HVoxel may be from a ground patch to be judged",
                   o.ground_reach, above(0.0, 10000.0)));
+  r.push_back(ref("occupancy.obstacle_reach", "m",
+                  "farthest a column standing on a ground patch's plane may be from it to be judged an obstacle",
+                  o.obstacle_reach, above(0.0, 10000.0)));
   r.push_back(ref("occupancy.free_ray_height", "m", "a ray frees the cells it crosses at most this high above the ground",
                   o.free_ray_height, closed(0.0, 1000.0)));
   auto& s = p.slam;

@@ -57,6 +57,10 @@ struct OccupancyParams {
   double clamp_max = 0.97;                 ///< [-] probability ceiling
   double ground_reach = 3.0;               ///< [m] HVoxels farther than this beyond the square of
                                            ///< their nearest ground patch are not judged
+  double obstacle_reach = 15.0;            ///< [m] the grid judged from a map: a column farther than
+                                           ///< ground_reach from every patch but within this of one is
+                                           ///< blocked when its lowest HVoxel stands on that patch's plane
+                                           ///< (within ground.elevation_threshold) and rises above d_pth
   double free_ray_height = 0.2;            ///< [m] a ray frees the cells it crosses at most this high above
                                            ///< the ground (2·d_pth: no obstacle that blocks stands there);
                                            ///< above z+ every crossed cell, as the paper's 2D ray

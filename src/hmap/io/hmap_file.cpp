@@ -38,7 +38,8 @@ bool is_later_parameter(const std::string& name) {
       "slam.attitude_min_surfaces", "slam.attitude_min_lever", "slam.level_prior",  "slam.max_floor_tilt", "slam.level_max_slope",
       "occupancy.free_ray_height", "slam.imu_gravity_time_constant", "slam.imu_accel_gate", "slam.imu_tilt_weight",
       "slam.imu_roll", "slam.imu_pitch", "slam.imu_yaw", "slam.deskew",
-      "slam.odometry_sigma_translation", "slam.odometry_sigma_rotation", "slam.odometry_noise"};
+      "slam.odometry_sigma_translation", "slam.odometry_sigma_rotation", "slam.odometry_noise",
+      "occupancy.obstacle_reach"};
   for (const char* n : kLater) {
     if (name == n) return true;
   }

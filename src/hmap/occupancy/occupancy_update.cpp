@@ -411,8 +411,23 @@ OccupancyGrid occupancy_from_map(const HMap& map, const GroundModel& ground, con
   map.for_each_column([&](const CellKey& key, const ColumnView& column) {
     const Eigen::Vector2d xy = map.cell_center(key);
     const GroundPatch* patch = ground.nearest(xy.x(), xy.y());
-    if (patch == nullptr || (patch->center.head<2>() - xy).norm() > max_ground_distance) return;
+    if (patch == nullptr) return;
+    const double distance = (patch->center.head<2>() - xy).norm();
     const double g = patch->height_at(xy.x(), xy.y());
+    if (distance > max_ground_distance) {
+      // Beyond the ground's reach: a column whose lowest HVoxel starts on the patch's plane stands
+      // on that ground, and is blocked by any obstacle HVoxel over it; never free (the ground
+      // around it was not seen), and nothing said of a column that does not reach the plane.
+      if (distance > op.obstacle_reach || column.size() == 0) return;
+      if (std::abs(static_cast<double>(column.data()[0].z_min) - g) > params.ground.elevation_threshold) return;
+      for (const HVoxel& v : column) {
+        if (hvoxel_role(v, g, op) == HVoxelRole::kObstacle) {
+          grid.update(key, grid.clamp_max_log_odds());
+          break;
+        }
+      }
+      return;
+    }
     bool obstacle = false;
     bool drivable = false;
     for (const HVoxel& v : column) {

@@ -121,7 +121,11 @@ namespace hmap {
 /// obstacle HVoxel makes the cell occupied (clamp_max), drivable ground alone makes it free
 /// (clamp_min), ignored HVoxels (above z+, below z−) say nothing — so columns with only a ceiling
 /// or a tree crown stay unknown. Columns without a ground patch nearer than `max_ground_distance`
-/// [m] stay unknown too.
+/// [m] are judged for obstacles only, and only against the nearest patch within
+/// `occupancy.obstacle_reach`: blocked when the column's lowest HVoxel starts within
+/// `ground.elevation_threshold` of that patch's plane (it stands on that ground) and one of its
+/// HVoxels is an obstacle there (a wall's foot on a floor the sensor saw too sparsely for patches,
+/// balm_os0's west wall); never free, since the ground around it was not seen.
 [[nodiscard]] OccupancyGrid occupancy_from_map(const HMap& map, const GroundModel& ground, const Params& params,
                                                double max_ground_distance);
 
