@@ -242,7 +242,7 @@ PointCloud ScanSource::read(std::size_t index, CloudReadStats& stats, std::vecto
   std::error_code size_error;
   const std::uintmax_t size = std::filesystem::file_size(path, size_error);
   if (!size_error) memory_budget().require(2.0 * static_cast<double>(size), path.string() + ": reading the scan");
-  PointCloud cloud = read_cloud(path, &s, times_s);
+  PointCloud cloud = read_cloud(path, &s, times_s, &memory_budget());
   stats += s;
   return cloud;
 }

@@ -2,7 +2,12 @@
 
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
+#include <algorithm>
 #include <chrono>
+#include <filesystem>
+#include <fstream>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -399,6 +404,83 @@ TEST_F(PcdTimeTest, WithoutTheTimeRequestTheCloudIsTheSame) {
   std::vector<float> times;
   EXPECT_EQ(read_pcd(path), read_pcd(path, nullptr, &times));
   EXPECT_EQ(times.size(), 2U);
+}
+
+}  // namespace
+}  // namespace hmap
+
+namespace hmap {
+namespace {
+
+/// `n` zero bytes as LZF: one literal byte, then back references of 264 bytes at distance 1
+/// (3 bytes each: the most a reference holds), and a shorter one for the rest.
+std::string lzf_zeros(std::size_t n) {
+  std::string out;
+  if (n == 0) return out;
+  out.push_back('\0');  // a literal run of one byte
+  out.push_back('\0');
+  std::size_t done = 1;
+  while (done < n) {
+    const std::size_t len = std::min<std::size_t>(264, n - done);
+    if (len < 3) {  // a reference copies at least 3 bytes: the rest as literals
+      out.push_back(static_cast<char>(len - 1));
+      out.append(len, '\0');
+      break;
+    }
+    if (len - 2 < 7) {
+      out.push_back(static_cast<char>((len - 2) << 5));
+    } else {
+      out.push_back(static_cast<char>(7 << 5));
+      out.push_back(static_cast<char>(len - 2 - 7));
+    }
+    out.push_back('\0');  // distance 1
+    done += len;
+  }
+  return out;
+}
+
+// A compressed PCD decompresses to up to 88 times its size: the points it would make are checked
+// against the memory budget before anything is allocated (issue 14: "a compressed PCD's
+// decompressed points are not budgeted").
+namespace fs = std::filesystem;
+
+TEST(PcdBudgetTest, CompressedPointsBeyondTheBudgetAreRefusedBeforeTheyAreDecompressed) {
+  const fs::path dir = fs::temp_directory_path() / ("hmap_pcd_budget_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  constexpr std::uint32_t kPoints = 1'000'000;
+  const std::uint32_t raw = kPoints * 12;
+  const std::string lzf = lzf_zeros(raw);
+  ASSERT_LT(lzf.size() * 80, raw) << "the file is small: the size check before reading does not catch it";
+  std::string file = "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH " + std::to_string(kPoints) +
+                     "\nHEIGHT 1\nPOINTS " + std::to_string(kPoints) + "\nDATA binary_compressed\n";
+  const auto put32 = [&](std::uint32_t v) { file.append(reinterpret_cast<const char*>(&v), 4); };
+  put32(static_cast<std::uint32_t>(lzf.size()));
+  put32(raw);
+  file += lzf;
+  const fs::path path = dir / "zeros.pcd";
+  {
+    std::ofstream out(path, std::ios::binary);
+    out << file;
+  }
+  MemoryBudget small;
+  small.bytes = std::size_t{16} << 20;  // 16 MiB: less than the 12 MB decompressed + 12 MB of points
+  try {
+    (void)read_pcd(path, nullptr, nullptr, &small);
+    ADD_FAILURE() << "read within a budget it exceeds";
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("zeros.pcd: the decompressed points of its binary_compressed data needs 23 MiB"), std::string::npos)
+        << what;
+    EXPECT_NE(what.find("--max-memory"), std::string::npos) << what;
+  }
+  MemoryBudget enough;
+  enough.bytes = std::size_t{32} << 20;
+  const PointCloud cloud = read_pcd(path, nullptr, nullptr, &enough);
+  ASSERT_EQ(cloud.size(), kPoints);
+  EXPECT_EQ(cloud.front(), Point3f(0, 0, 0));
+  EXPECT_EQ(cloud.back(), Point3f(0, 0, 0));
+  EXPECT_EQ(read_pcd(path).size(), kPoints) << "no budget given: read";
+  fs::remove_all(dir);
 }
 
 }  // namespace

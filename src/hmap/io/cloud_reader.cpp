@@ -13,12 +13,13 @@
 
 namespace hmap {
 
-PointCloud read_cloud(const std::filesystem::path& path, CloudReadStats* stats, std::vector<float>* times_s) {
+PointCloud read_cloud(const std::filesystem::path& path, CloudReadStats* stats, std::vector<float>* times_s,
+                      const MemoryBudget* budget) {
   if (times_s != nullptr) times_s->clear();
   std::string extension = path.extension().string();
   std::transform(extension.begin(), extension.end(), extension.begin(),
                  [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  if (extension == ".pcd") return read_pcd(path, stats, times_s);
+  if (extension == ".pcd") return read_pcd(path, stats, times_s, budget);
   if (extension == ".ply") return read_ply(path, stats);
   if (extension == ".bin") return read_kitti_bin(path, stats);
   if (extension == ".vtk") return read_vtk(path, stats);

@@ -62,8 +62,8 @@ constexpr std::uint64_t kMaxFieldCount = std::uint64_t{1} << 24;
 
 class PcdReader {
  public:
-  PcdReader(const std::filesystem::path& path, std::string_view bytes)
-      : source_(path.string()), bytes_(bytes) {}
+  PcdReader(const std::filesystem::path& path, std::string_view bytes, const MemoryBudget* budget)
+      : source_(path.string()), bytes_(bytes), budget_(budget) {}
 
   PointCloud read(CloudReadStats& stats, std::vector<float>* times) {
     parse_header();
@@ -402,6 +402,10 @@ class PcdReader {
                                       " LZF-compressed bytes; the file is corrupt");
     }
     if (uncompressed == 0) return;
+    if (budget_ != nullptr) {
+      budget_->require(static_cast<double>(uncompressed) + static_cast<double>(header_.points) * sizeof(Point3f),
+                       source_ + ": the decompressed points of its binary_compressed data");
+    }
 
     const auto soa = std::make_unique_for_overwrite<char[]>(uncompressed);
     const unsigned int decompressed =
@@ -450,6 +454,7 @@ class PcdReader {
 
   std::string source_;
   std::string_view bytes_;
+  const MemoryBudget* budget_ = nullptr;
   PcdHeader header_;
   std::optional<Coordinate> time_;  // the per-point time field, when asked for and present
   std::vector<double> raw_times_;   // per kept point, in the file's unit
@@ -457,10 +462,11 @@ class PcdReader {
 
 }  // namespace
 
-PointCloud read_pcd(const std::filesystem::path& path, CloudReadStats* stats, std::vector<float>* times_s) {
+PointCloud read_pcd(const std::filesystem::path& path, CloudReadStats* stats, std::vector<float>* times_s,
+                    const MemoryBudget* budget) {
   const std::string bytes = detail::read_file_bytes(path);
   CloudReadStats local;
-  PointCloud cloud = PcdReader(path, bytes).read(local, times_s);
+  PointCloud cloud = PcdReader(path, bytes, budget).read(local, times_s);
   if (stats != nullptr) *stats = local;
   return cloud;
 }

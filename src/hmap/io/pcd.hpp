@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <vector>
 
+#include "hmap/core/budget.hpp"
 #include "hmap/core/types.hpp"
 #include "hmap/io/cloud_stats.hpp"
 
@@ -20,7 +21,9 @@ namespace hmap {
 /// `times_s` given: filled with each kept point's time in seconds from the scan's reference when
 /// the file has a field t, time or timestamp (COUNT 1; units as point_times_to_seconds detects
 /// them), left empty when it has none. A time that is not finite is refused.
+/// `budget` given: binary_compressed data's decompressed bytes and the points made from them (up
+/// to 88 times the file's size) are checked against it before they are allocated (hmap::Error).
 [[nodiscard]] PointCloud read_pcd(const std::filesystem::path& path, CloudReadStats* stats = nullptr,
-                                  std::vector<float>* times_s = nullptr);
+                                  std::vector<float>* times_s = nullptr, const MemoryBudget* budget = nullptr);
 
 }  // namespace hmap
