@@ -15,9 +15,10 @@ DEBS := cmake ninja-build g++ libeigen3-dev libnanoflann-dev libtbb-dev libcli11
         liboctomap-dev libgdal-dev libgtest-dev libbenchmark-dev libfreetype-dev fonts-dejavu-core \
         librosbag-dev libsensor-msgs-dev libnav-msgs-dev libtf2-msgs-dev python3-rosbag python3-sensor-msgs \
         python3-nav-msgs python3-tf2-msgs clang libclang-rt-14-dev \
-        pybind11-dev python3-dev python3-numpy python3-pytest
+        pybind11-dev python3-dev python3-numpy python3-pytest \
+        liblz4-dev libsqlite3-dev nodejs npm
 
-.PHONY: all deps build tool demo demo-real test test-sanitize bench bench-slam bench-peers clean fuzz-ci test-tsan
+.PHONY: all deps build tool demo demo-real test test-sanitize ros2-test-deps bench bench-slam bench-peers clean fuzz-ci test-tsan
 
 all: build
 
@@ -54,7 +55,13 @@ demo-real: tool
 	$(BUILD)/bin/hmap render out/balm_os0.hmap --view oblique --out out/balm_os0_oblique.png
 	$(BUILD)/bin/hmap export out/balm_os0.hmap --ply out/balm_os0_hvoxels.ply
 
-test: build
+# The ROS 2 test recordings are written by the ecosystem's own writers (tests/ros2: @mcap/core,
+# @foxglove/rosmsg2-serialization), installed pinned from package-lock.json; the tests skip
+# without them.
+ros2-test-deps: deps
+	npm ci --prefix tests/ros2 --no-audit --no-fund
+
+test: build ros2-test-deps
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
 
 # hmap slam with its defaults beside Debian's Open3D ICP and KISS-ICP (built from ../shared/peers
@@ -78,7 +85,7 @@ SAN_CONFIGURE = CC=clang CXX=clang++ cmake -S . -B $(BUILD_SAN) -G Ninja -DCMAKE
 # the other tests do not.
 SAN_EXCLUDE := ^(BoundedTest.AGibibyteOfRandomBytesIsRejected|TornFileTest\..*)$$
 
-test-sanitize: deps
+test-sanitize: deps ros2-test-deps
 	$(SAN_CONFIGURE)
 	cmake --build $(BUILD_SAN) -j $(JOBS)
 	cd $(BUILD_SAN) && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 \
