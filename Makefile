@@ -10,6 +10,8 @@ DATA       ?= $(abspath ../shared/data)
 JOBS       ?= $(shell nproc)
 # A compiler cache speeds rebuilds when one is installed; nothing needs it.
 LAUNCHER   := $(if $(shell command -v ccache 2>/dev/null),-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
+# nodejs and npm count as there when `node` and `npm` are on the PATH: NodeSource's nodejs package
+# carries its own npm and conflicts with Debian's.
 DEBS := cmake ninja-build g++ libeigen3-dev libnanoflann-dev libtbb-dev libcli11-dev \
         nlohmann-json3-dev libyaml-cpp-dev libzstd-dev liblzf-dev libxxhash-dev libpng-dev \
         liboctomap-dev libgdal-dev libgtest-dev libbenchmark-dev libfreetype-dev fonts-dejavu-core \
@@ -23,7 +25,8 @@ DEBS := cmake ninja-build g++ libeigen3-dev libnanoflann-dev libtbb-dev libcli11
 all: build
 
 deps:
-	@missing=$$(for p in $(DEBS); do dpkg-query -W -f='$${Status}\n' $$p 2>/dev/null | grep -q '^install ok installed' || echo $$p; done); \
+	@missing=$$(for p in $(DEBS); do dpkg-query -W -f='$${Status}\n' $$p 2>/dev/null | grep -q '^install ok installed' || \
+	  case $$p in nodejs|npm) command -v $${p%js} >/dev/null || echo $$p;; *) echo $$p;; esac; done); \
 	if [ -n "$$missing" ]; then \
 	  echo "installing Debian packages:" $$missing; \
 	  if [ "$$(id -u)" != 0 ]; then echo "run as root (or install: $$missing)"; exit 1; fi; \

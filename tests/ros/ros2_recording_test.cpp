@@ -5,6 +5,10 @@
 
 #include <gtest/gtest.h>
 
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <cstdlib>
 #include <functional>
@@ -39,22 +43,42 @@ class Ros2RecordingTest : public ::testing::Test {
       why_ = "the npm packages are absent: run `make ros2-test-deps` (npm ci --prefix tests/ros2)";
       return;
     }
-    // Into the build folder, fresh for each run.
+    // Into the build folder, once for all the test processes CTest runs (each test is a process,
+    // two at a time): under a lock, written again only when the scripts, their packages or the
+    // data folder changed since the recordings there were made.
     dir_ = fs::path(HMAP_TEST_BUILD_DIR) / "ros2_recordings";
-    std::error_code ec;
-    fs::remove_all(dir_, ec);
-    fs::create_directories(dir_);
-    const std::string node = "node " + (scripts / "make_ros2_recordings.js").string() + " " + test::data_dir().string() +
-                             " " + dir_.string() + " " + std::to_string(kScans) + " " + std::to_string(kStep) + " 2>&1";
-    const std::string db3 = "/usr/bin/python3 " + (scripts / "make_db3.py").string() + " " + (dir_ / "messages.json").string() +
-                            " " + (dir_ / "db3").string() + " 2>&1";
-    if (std::system(node.c_str()) != 0) {
-      why_ = "make_ros2_recordings.js failed";
+    const int lock = ::open((fs::path(HMAP_TEST_BUILD_DIR) / "ros2_recordings.lock").c_str(), O_CREAT | O_RDWR | O_CLOEXEC, 0644);
+    if (lock < 0 || ::flock(lock, LOCK_EX) != 0) {
+      why_ = "cannot lock " + (fs::path(HMAP_TEST_BUILD_DIR) / "ros2_recordings.lock").string();
       return;
     }
-    if (std::system(db3.c_str()) != 0) {
-      why_ = "make_db3.py failed";
-      return;
+    struct Unlock {
+      int fd;
+      ~Unlock() { ::close(fd); }
+    } unlock{lock};
+    std::string stamp = test::data_dir().string();
+    for (const char* f : {"make_ros2_recordings.js", "make_db3.py", "package-lock.json"}) {
+      stamp += " " + std::to_string(fs::last_write_time(scripts / f).time_since_epoch().count());
+    }
+    std::string made;
+    std::getline(std::ifstream(dir_ / "stamp"), made);
+    if (made != stamp) {
+      std::error_code ec;
+      fs::remove_all(dir_, ec);
+      fs::create_directories(dir_);
+      const std::string node = "node " + (scripts / "make_ros2_recordings.js").string() + " " + test::data_dir().string() +
+                               " " + dir_.string() + " " + std::to_string(kScans) + " " + std::to_string(kStep) + " 2>&1";
+      const std::string db3 = "/usr/bin/python3 " + (scripts / "make_db3.py").string() + " " +
+                              (dir_ / "messages.json").string() + " " + (dir_ / "db3").string() + " 2>&1";
+      if (std::system(node.c_str()) != 0) {
+        why_ = "make_ros2_recordings.js failed";
+        return;
+      }
+      if (std::system(db3.c_str()) != 0) {
+        why_ = "make_db3.py failed";
+        return;
+      }
+      std::ofstream(dir_ / "stamp") << stamp << "\n";
     }
     std::ifstream in(dir_ / "manifest.json");
     manifest_ = nlohmann::json::parse(in);
