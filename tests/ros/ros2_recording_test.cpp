@@ -122,7 +122,7 @@ double max_pose_error(const Pose& a, const Pose& b) {
                   1e-3 * (a.linear() - b.linear()).cwiseAbs().maxCoeff());
 }
 
-const char* const kRecordings[] = {"zstd.mcap", "lz4.mcap", "none.mcap", "nosummary.mcap", "r2mcap", "db3"};
+const char* const kRecordings[] = {"zstd.mcap", "lz4.mcap", "none.mcap", "bigendian.mcap", "nosummary.mcap", "r2mcap", "db3"};
 
 TEST_F(Ros2RecordingTest, InfoCountsWhatWasWritten) {
   for (const std::string name : kRecordings) {
@@ -149,6 +149,15 @@ TEST_F(Ros2RecordingTest, InfoCountsWhatWasWritten) {
   EXPECT_EQ(ros::read_bag_info(dir_ / "zstd.mcap").compression, "zstd");
   EXPECT_EQ(ros::read_bag_info(dir_ / "lz4.mcap").compression, "lz4");
   EXPECT_EQ(ros::read_bag_info(dir_ / "none.mcap").compression, "none");
+  // bigendian.mcap's clouds are big-endian CDR: their frame_id "os_sensor" follows its length 10
+  // as 00 00 00 0a (the little-endian messages write 0a 00 00 00), which none.mcap never holds.
+  const auto bytes_of = [](const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  };
+  const std::string be_frame("\0\0\0\x0aos_sensor", 13);
+  EXPECT_NE(bytes_of(dir_ / "bigendian.mcap").find(be_frame), std::string::npos);
+  EXPECT_EQ(bytes_of(dir_ / "none.mcap").find(be_frame), std::string::npos);
   EXPECT_EQ(ros::read_bag_info(dir_ / "db3").compression, "none");
   EXPECT_EQ(ros::read_bag_info(dir_ / "zstd.mcap").format, "MCAP");
   EXPECT_EQ(ros::read_bag_info(dir_ / "db3").format, "rosbag2 (sqlite3, 1 file)");

@@ -14,6 +14,9 @@
 //        /odom nav_msgs/msg/Odometry (odom <- os_sensor) = P_k at t_k; /pose
 //        geometry_msgs/msg/PoseStamped (odom) = P_k at t_k; /imu sensor_msgs/msg/Imu, 10 messages
 //        per scan 10 ms apart from t_k, gyro (0.01 j, -0.02, 0.3), accel (0, 0, 9.81).
+//   bigendian.mcap   as none.mcap, but /os_cloud in big-endian CDR (CDR_BE, @foxglove/cdr's
+//        CdrWriter field by field: rosmsg2-serialization writes little endian only) with the
+//        points big endian too (is_bigendian = true) and its fields in the order z, pad, x, y
 //   nosummary.mcap   as zstd.mcap without summary section (the footer's summary start is 0)
 //   truncated.mcap   nosummary.mcap cut inside its last cloud's chunk (a recorder killed)
 //   badcrc.mcap      none.mcap with one byte of the first cloud's points changed
@@ -29,6 +32,7 @@ const fs = require("fs");
 const path = require("path");
 const { McapWriter, McapStreamReader } = require("@mcap/core");
 const { MessageWriter } = require("@foxglove/rosmsg2-serialization");
+const { CdrWriter, EncapsulationKind } = require("@foxglove/cdr");
 const { parse } = require("@foxglove/rosmsg");
 const zstd = require("@foxglove/wasm-zstd");
 const lz4 = require("lz4js");
@@ -165,7 +169,29 @@ class FileWritable {
   bytes() { return Buffer.concat(this.parts); }
 }
 
-async function writeMcap(messages, { compression, summary, encoding }) {
+/// A PointCloud2 in big-endian CDR with big-endian points laid out z, 4 pad bytes, x, y, t.
+function bigEndianCloud(msg, scan) {
+  const n = scan.points.length;
+  const step = 20;
+  const data = new Uint8Array(n * step);
+  const view = new DataView(data.buffer);
+  scan.points.forEach((p, i) => {
+    view.setFloat32(i * step, p[2], false);
+    view.setFloat32(i * step + 8, p[0], false);
+    view.setFloat32(i * step + 12, p[1], false);
+    view.setUint32(i * step + 16, Math.floor((i * 100000000) / n), false);
+  });
+  const w = new CdrWriter({ kind: EncapsulationKind.CDR_BE });
+  w.int32(msg.header.stamp.sec).uint32(msg.header.stamp.nanosec).string(msg.header.frame_id);
+  w.uint32(1).uint32(n);
+  const fields = [["z", 0, 7], ["x", 8, 7], ["y", 12, 7], ["t", 16, 6]];
+  w.sequenceLength(fields.length);
+  for (const [name, offset, datatype] of fields) w.string(name).uint32(offset).uint8(datatype).uint32(1);
+  w.uint8(1).uint32(step).uint32(n * step).uint8Array(data, true).uint8(1);
+  return w.data;
+}
+
+async function writeMcap(messages, { compression, summary, encoding, bigEndianClouds }) {
   const writable = new FileWritable();
   const compressChunk =
     compression === "zstd" ? (d) => ({ compression: "zstd", compressedData: zstd.compress(d, 3) })
@@ -187,7 +213,8 @@ async function writeMcap(messages, { compression, summary, encoding }) {
     }
     counts[topic] = (counts[topic] ?? 0) + 1;
     const ns = nsOf(t);
-    await writer.addMessage({ channelId: channels[topic], sequence: sequence++, logTime: ns, publishTime: ns, data: WRITERS[type].writeMessage(msg) });
+    const data = bigEndianClouds && topic === "/os_cloud" ? bigEndianCloud(msg, bigEndianClouds.shift()) : WRITERS[type].writeMessage(msg);
+    await writer.addMessage({ channelId: channels[topic], sequence: sequence++, logTime: ns, publishTime: ns, data });
   }
   await writer.end();
   return { bytes: writable.bytes(), counts };
@@ -227,6 +254,7 @@ async function main() {
     ["none.mcap", { compression: "none", summary: true }],
     ["nosummary.mcap", { compression: "zstd", summary: false }],
     ["json.mcap", { compression: "none", summary: true, encoding: "json" }],
+    ["bigendian.mcap", { compression: "none", summary: true, bigEndianClouds: [...scans] }],
   ]) {
     const { bytes, counts } = await writeMcap(messages, options);
     fs.writeFileSync(path.join(out, name), bytes);
