@@ -230,6 +230,12 @@ TEST(McapReaderTest, LyingLengthsAreRefusedBeforeAllocating) {
   append(bz, chunk(records, "bz2", 0));
   finish(bz);
   EXPECT_NE(error_of([&] { (void)open(bz); }).find("chunk compression \"bz2\" is not one hmap reads"), std::string::npos);
+  // An empty schema record (found by fuzzing: a 0-byte read from the buffer must not reach memcpy
+  // with a null pointer, which UBSan reports under make test-sanitize).
+  Bytes empty = start();
+  append(empty, record(0x03, {}));
+  finish(empty);
+  EXPECT_NE(error_of([&] { (void)open(empty); }).find("runs past the record's end"), std::string::npos);
   // A message naming a channel the file lacks.
   Bytes orphan = start();
   append(orphan, message(9, 1, payload(4, 0)));

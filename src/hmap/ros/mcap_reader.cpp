@@ -123,6 +123,7 @@ class MemorySource final : public ByteSource {
   explicit MemorySource(std::span<const std::uint8_t> bytes) : bytes_(bytes.begin(), bytes.end()) {}
   [[nodiscard]] std::uint64_t size() const override { return bytes_.size(); }
   void read(std::uint64_t offset, std::span<std::uint8_t> out) const override {
+    if (out.empty()) return;  // memcpy from or to a null pointer is undefined even for 0 bytes
     std::memcpy(out.data(), bytes_.data() + offset, out.size());
   }
 
