@@ -10,19 +10,23 @@ DATA       ?= $(abspath ../shared/data)
 JOBS       ?= $(shell nproc)
 # A compiler cache speeds rebuilds when one is installed; nothing needs it.
 LAUNCHER   := $(if $(shell command -v ccache 2>/dev/null),-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
+# nodejs and npm count as there when `node` and `npm` are on the PATH: NodeSource's nodejs package
+# carries its own npm and conflicts with Debian's.
 DEBS := cmake ninja-build g++ libeigen3-dev libnanoflann-dev libtbb-dev libcli11-dev \
         nlohmann-json3-dev libyaml-cpp-dev libzstd-dev liblzf-dev libxxhash-dev libpng-dev \
         liboctomap-dev libgdal-dev libgtest-dev libbenchmark-dev libfreetype-dev fonts-dejavu-core \
         librosbag-dev libsensor-msgs-dev libnav-msgs-dev libtf2-msgs-dev python3-rosbag python3-sensor-msgs \
         python3-nav-msgs python3-tf2-msgs clang libclang-rt-14-dev \
-        pybind11-dev python3-dev python3-numpy python3-pytest
+        pybind11-dev python3-dev python3-numpy python3-pytest \
+        liblz4-dev libsqlite3-dev nodejs npm
 
-.PHONY: all deps build tool demo demo-real test test-sanitize bench bench-slam bench-peers clean fuzz-ci test-tsan
+.PHONY: all deps build tool demo demo-real test test-sanitize ros2-test-deps bench bench-slam bench-peers clean fuzz-ci test-tsan
 
 all: build
 
 deps:
-	@missing=$$(for p in $(DEBS); do dpkg-query -W -f='$${Status}\n' $$p 2>/dev/null | grep -q '^install ok installed' || echo $$p; done); \
+	@missing=$$(for p in $(DEBS); do dpkg-query -W -f='$${Status}\n' $$p 2>/dev/null | grep -q '^install ok installed' || \
+	  case $$p in nodejs|npm) command -v $${p%js} >/dev/null || echo $$p;; *) echo $$p;; esac; done); \
 	if [ -n "$$missing" ]; then \
 	  echo "installing Debian packages:" $$missing; \
 	  if [ "$$(id -u)" != 0 ]; then echo "run as root (or install: $$missing)"; exit 1; fi; \
@@ -54,7 +58,13 @@ demo-real: tool
 	$(BUILD)/bin/hmap render out/balm_os0.hmap --view oblique --out out/balm_os0_oblique.png
 	$(BUILD)/bin/hmap export out/balm_os0.hmap --ply out/balm_os0_hvoxels.ply
 
-test: build
+# The ROS 2 test recordings are written by the ecosystem's own writers (tests/ros2: @mcap/core,
+# @foxglove/rosmsg2-serialization), installed pinned from package-lock.json; the tests skip
+# without them.
+ros2-test-deps: deps
+	npm ci --prefix tests/ros2 --no-audit --no-fund
+
+test: build ros2-test-deps
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
 
 # hmap slam with its defaults beside Debian's Open3D ICP and KISS-ICP (built from ../shared/peers
@@ -80,7 +90,7 @@ SAN_CONFIGURE = CC=clang CXX=clang++ cmake -S . -B $(BUILD_SAN) -G Ninja -DCMAKE
 # at the end of the run); the code it runs is run under ASan by the CLI tests and fuzzed.
 SAN_EXCLUDE := ^(BoundedTest.AGibibyteOfRandomBytesIsRejected|TornFileTest\..*|readme_commands)$$
 
-test-sanitize: deps
+test-sanitize: deps ros2-test-deps
 	$(SAN_CONFIGURE)
 	cmake --build $(BUILD_SAN) -j $(JOBS)
 	cd $(BUILD_SAN) && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 \

@@ -29,6 +29,8 @@ HMAP_FUZZ_DECLARE(params_cli)
 HMAP_FUZZ_DECLARE(cli_flags)
 #ifdef HMAP_FUZZ_HAVE_ROS
 HMAP_FUZZ_DECLARE(rosbag)
+HMAP_FUZZ_DECLARE(mcap)
+HMAP_FUZZ_DECLARE(cdr)
 #endif
 
 namespace {
@@ -58,6 +60,8 @@ constexpr Target kTargets[] = {
     {"cli_flags", hmap_fuzz_cli_flags},
 #ifdef HMAP_FUZZ_HAVE_ROS
     {"rosbag", hmap_fuzz_rosbag},
+    {"mcap", hmap_fuzz_mcap},
+    {"cdr", hmap_fuzz_cdr},
 #endif
 };
 

@@ -1,4 +1,5 @@
-// hmap bag-info, and ROS 1 bags as a scan source (hmap map --bag). Built with hmap::ros only.
+// hmap bag-info, and recordings as a scan source (hmap map --bag): ROS 1 bags, MCAP files and
+// rosbag2 folders alike (hmap::ros tells them apart). Built with hmap::ros only.
 
 #ifdef HMAP_HAVE_ROS
 
@@ -26,9 +27,12 @@ class BagFrames final : public FrameReader {
 
 void run_bag_info(const std::string& path) {
   const ros::BagInfo info = ros::read_bag_info(path);
-  std::printf("path:        %s\nversion:     %u.%u\nduration:    %.3f s (%.6f to %.6f)\nmessages:    %zu\n"
+  for (const auto& w : info.warnings) std::fprintf(stderr, "hmap: warning: %s\n", w.c_str());
+  std::printf("path:        %s\nformat:      %s\n", path.c_str(), info.format.c_str());
+  if (info.version != 0) std::printf("version:     %u.%u\n", info.version / 100, info.version % 100);
+  std::printf("duration:    %.3f s (%.6f to %.6f)\nmessages:    %zu\n"
               "chunks:      %zu\ncompression: %s\ntopics:\n",
-              path.c_str(), info.version / 100, info.version % 100, info.end_time - info.start_time, info.start_time,
+              info.end_time - info.start_time, info.start_time,
               info.end_time, info.messages, info.chunks, info.compression.c_str());
   for (const auto& t : info.topics) std::printf("  %-32s %6zu msgs  %s\n", t.name.c_str(), t.messages, t.type.c_str());
 }
@@ -46,6 +50,7 @@ ScanSource open_bag_source(const ScanSourceOptions& sensors, std::size_t max_sca
   if (sensors.tf_frames.size() > 1) options.sensor_frame = sensors.tf_frames[1];
   options.max_clouds = max_scans;
   auto reader = std::make_unique<ros::BagCloudReader>(sensors.bag, options);
+  for (const auto& w : reader->warnings()) std::fprintf(stderr, "hmap: warning: %s\n", w.c_str());
   ScanSource src;
   src.T_map_scan.emplace();
   for (const auto& f : reader->frames()) {
@@ -62,8 +67,8 @@ ScanSource open_bag_source(const ScanSourceOptions& sensors, std::size_t max_sca
 
 void add_bag_info_command(CLI::App& app) {
   auto path = std::make_shared<std::string>();
-  auto* cmd = app.add_subcommand("bag-info", "List the topics of a ROS 1 bag (types, message counts, compression)");
-  cmd->add_option("bag", *path, "ROS 1 bag file")->required();
+  auto* cmd = app.add_subcommand("bag-info", "List the topics of a recording (types, message counts, time range, compression)");
+  cmd->add_option("bag", *path, "ROS 1 bag, MCAP file or rosbag2 folder")->required();
   cmd->callback([path] { run_bag_info(*path); });
 }
 

@@ -72,6 +72,29 @@ TEST_F(CliErrorsTest, BrokenScansNameTheFileAndThePosition) {
   expect_refusal(map(write("ctrl.xyz", "1 2 3\n4 \x1b[2J 6\n")), {"ctrl.xyz", "line 2", "\\x1B[2J"});
 }
 
+TEST_F(CliErrorsTest, BrokenRos2RecordingsNameTheFileAndWhatIsWrong) {
+  // An MCAP file whose header record claims 2^56 bytes, and one whose only chunk claims 2^60.
+  const std::string magic("\x89MCAP0\r\n", 8);
+  const std::string huge = write("huge.mcap", magic + '\x01' + std::string(7, '\0') + '\x01' + std::string(8, '\0'));
+  for (const char* command : {"bag-info", "map"}) {
+    std::vector<std::string> args = {command, "--bag", huge, "--cloud-topic", "/c", "--out", path("m.hmap")};
+    if (std::string(command) == "bag-info") args = {command, huge};
+    expect_refusal(args, {"huge.mcap: byte 8: header record runs past the end of the file"});
+  }
+  // A rosbag2 folder without its metadata.yaml.
+  fs::create_directories(dir_ / "rosbag2");
+  write("rosbag2/rosbag2_0.db3", "SQLite format 3");
+  expect_refusal({"bag-info", path("rosbag2")}, {"rosbag2: is a folder without metadata.yaml: not a rosbag2 recording"});
+  expect_refusal({"slam", "--bag", path("rosbag2"), "--cloud-topic", "/c", "--out", path("m.hmap")},
+                 {"rosbag2: is a folder without metadata.yaml"});
+  // metadata.yaml naming a file that is not there.
+  write("rosbag2/metadata.yaml", "rosbag2_bagfile_information:\n  storage_identifier: sqlite3\n  relative_file_paths:\n    - gone.db3\n");
+  expect_refusal({"bag-info", path("rosbag2")}, {"metadata.yaml: relative_file_paths: lists ", "gone.db3, which does not exist"});
+  // A .db3 that is not SQLite.
+  write("rosbag2/metadata.yaml", "rosbag2_bagfile_information:\n  storage_identifier: sqlite3\n  relative_file_paths:\n    - rosbag2_0.db3\n");
+  expect_refusal({"bag-info", path("rosbag2")}, {"rosbag2_0.db3"});
+}
+
 TEST_F(CliErrorsTest, BrokenPosesConfigsAndMapsNameTheFileAndThePosition) {
   const auto map_with = [&](std::vector<std::string> extra) {
     std::vector<std::string> args = {"map", path("good.xyz"), "--out", path("m.hmap")};

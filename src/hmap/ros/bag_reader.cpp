@@ -15,7 +15,8 @@
 #include "hmap/core/format.hpp"
 #include "hmap/io/point_time.hpp"
 #include "hmap/io/read_support.hpp"
-#include "hmap/ros/rosbag_access.hpp"
+#include "hmap/ros/recording_access.hpp"
+#include "hmap/ros/ros2_recording.hpp"
 
 namespace hmap::ros {
 
@@ -327,15 +328,29 @@ void check_bag_records(const fs::path& path, BagInfo& info) {
   info.compression = kinds.empty() ? "none" : kinds.size() == 1 ? *kinds.begin() : "mixed";
 }
 
+bool is_ros2(const fs::path& path) { return fs::is_directory(path) || access::is_mcap_file(path); }
+
+/// The recording at `path`, whatever its kind: a folder is rosbag2, a file starting with the MCAP
+/// magic is MCAP, anything else must be a ROS 1 bag (its records checked first, into `ros1_info`).
+std::unique_ptr<access::Recording> open_recording(const fs::path& path, BagInfo& ros1_info) {
+  if (!fs::exists(path)) throw InputError(path.string(), "", "cannot open: no such file or folder");
+  if (is_ros2(path)) return access::open_ros2(path);
+  if (!fs::is_regular_file(path)) throw InputError(path.string(), "", "cannot open: not a regular file");
+  check_bag_records(path, ros1_info);
+  return access::open_ros1_bag(path.string());
+}
+
 }  // namespace
 
 BagInfo read_bag_info(const fs::path& path) {
   return guarded(path, [&] {
-    if (!fs::is_regular_file(path)) throw InputError(path.string(), "", "cannot open: no such file");
     BagInfo info;
-    check_bag_records(path, info);
-    const access::BagFile bag(path.string());
-    const access::Summary summary = bag.summary();
+    const auto bag = open_recording(path, info);
+    const access::Summary summary = bag->summary();
+    info.format = summary.format;
+    if (!summary.compression.empty()) info.compression = summary.compression;
+    if (!summary.format.starts_with("ROS 1")) info.chunks = summary.chunks;
+    info.warnings = summary.warnings;
     info.version = summary.version;
     info.start_time = summary.start_time;
     info.end_time = summary.end_time;
@@ -400,6 +415,13 @@ void decode_pointcloud2(const PointCloud2Data& cloud, PointCloud& points, CloudR
   }
   const bool swap = cloud.is_bigendian != (std::endian::native == std::endian::big);
   const std::size_t n = static_cast<std::size_t>(cloud.height) * cloud.width;
+  // No points: done, before a loop over rows that a height of 4e9 with empty rows (width 0, or
+  // row_step 0) would make endless. With points, each row holds >= 1 byte of data, so the rows
+  // are bounded by the data size checked above.
+  if (n == 0) {
+    if (time_axis.found) times_s->clear();
+    return;
+  }
   points.reserve(n);
   std::size_t dropped = 0;
   const char* base = reinterpret_cast<const char*>(cloud.data.data());
@@ -429,7 +451,7 @@ std::optional<std::string> bag_imu_topic(const fs::path& path, const std::string
   const BagInfo info = read_bag_info(path);
   std::vector<std::string> imu;
   for (const auto& t : info.topics) {
-    if (t.type == "sensor_msgs/Imu") imu.push_back(t.name);
+    if (t.type == "sensor_msgs/Imu" || t.type == "sensor_msgs/msg/Imu") imu.push_back(t.name);
   }
   if (!topic.empty()) {
     if (std::find(imu.begin(), imu.end(), topic) == imu.end()) {
@@ -449,10 +471,9 @@ std::optional<std::string> bag_imu_topic(const fs::path& path, const std::string
 ImuSamples read_bag_imu(const fs::path& path, const std::string& topic) {
   return guarded(path, [&] {
     BagInfo checked;
-    check_bag_records(path, checked);
-    const access::BagFile bag(path.string());
+    const auto bag = open_recording(path, checked);
     ImuSamples out;
-    for (const access::RawImu& r : bag.read_imu(topic)) {
+    for (const access::RawImu& r : bag->read_imu(topic)) {
       const std::string where = topic + " at stamp " + stamp_text(r.stamp);
       ImuSample s;
       s.t = r.stamp;
@@ -478,9 +499,10 @@ ImuSamples read_bag_imu(const fs::path& path, const std::string& topic) {
 struct BagCloudReader::Impl {
   fs::path path;
   BagCloudOptions options;
-  std::unique_ptr<access::BagFile> bag;
+  std::unique_ptr<access::Recording> bag;
   std::vector<BagCloudFrame> frames;
   std::string pose_source;
+  std::vector<std::string> warnings;
 };
 
 BagCloudReader::BagCloudReader(const fs::path& path, const BagCloudOptions& options) : impl_(std::make_unique<Impl>()) {
@@ -488,10 +510,9 @@ BagCloudReader::BagCloudReader(const fs::path& path, const BagCloudOptions& opti
   impl_->options = options;
   if (options.cloud_topic.empty()) throw Error("a bag needs --cloud-topic (see hmap bag-info " + path.string() + ")");
   guarded(path, [&] {
-    if (!fs::is_regular_file(path)) throw InputError(path.string(), "", "cannot open: no such file");
     BagInfo checked;
-    check_bag_records(path, checked);
-    impl_->bag = std::make_unique<access::BagFile>(path.string());
+    impl_->bag = open_recording(path, checked);
+    impl_->warnings = impl_->bag->summary().warnings;
     const std::string source = path.string();
 
     // The cloud messages and their headers (stamp, frame), indexed without decoding the points.
@@ -563,6 +584,8 @@ BagCloudReader::~BagCloudReader() = default;
 const std::vector<BagCloudFrame>& BagCloudReader::frames() const { return impl_->frames; }
 
 const std::string& BagCloudReader::pose_source() const { return impl_->pose_source; }
+
+const std::vector<std::string>& BagCloudReader::warnings() const { return impl_->warnings; }
 
 PointCloud BagCloudReader::read(std::size_t index, CloudReadStats* stats, std::vector<float>* times_s) const {
   const BagCloudFrame& frame = impl_->frames.at(index);

@@ -1,7 +1,9 @@
 #pragma once
-// ROS 1 bags (read with Debian's rosbag C++ libraries): sensor_msgs/PointCloud2 clouds and their
-// poses, from /tf (+ /tf_static) or from a nav_msgs/Odometry (or geometry_msgs/PoseStamped)
-// topic. No ROS header leaks from here: the library's users see hmap types only.
+// Recordings: ROS 1 bags (read with Debian's rosbag C++ libraries), MCAP files and rosbag2 folders
+// (ROS 2: .db3 or .mcap files with metadata.yaml, read by mcap_reader.hpp and cdr.hpp), one
+// interface whatever the kind (told by a folder, or the file's first bytes): sensor_msgs
+// PointCloud2 clouds and their poses, from /tf (+ /tf_static) or from a nav_msgs/Odometry (or
+// geometry_msgs/PoseStamped) topic. No ROS header leaks from here: users see hmap types only.
 
 #include <cstddef>
 #include <cstdint>
@@ -25,16 +27,18 @@ struct BagTopic {
 };
 
 struct BagInfo {
-  std::uint32_t version = 0;  ///< 200 for ROS 1 bags v2.0
+  std::string format;         ///< "ROS 1 bag", "MCAP", "rosbag2 (sqlite3, 1 file)", ...
+  std::uint32_t version = 0;  ///< 200 for ROS 1 bags v2.0, 0 for ROS 2 recordings
   double start_time = 0.0;    ///< [s] first message's record time
   double end_time = 0.0;      ///< [s]
   std::size_t messages = 0;
   std::size_t chunks = 0;
   std::string compression;    ///< none, lz4, bz2 or "mixed"
   std::vector<BagTopic> topics;  ///< sorted by name
+  std::vector<std::string> warnings;  ///< e.g. "cut off at byte N; read the M whole messages before it"
 };
 
-/// Lists the topics of a bag. Throws InputError naming the file for an unreadable or corrupt bag.
+/// Lists the topics of a bag (any kind: a ROS 1 bag, an MCAP file, a rosbag2 folder). Throws InputError naming the file for an unreadable or corrupt bag.
 [[nodiscard]] BagInfo read_bag_info(const std::filesystem::path& path);
 
 /// sensor_msgs/PointField datatypes.
@@ -118,6 +122,8 @@ class BagCloudReader {
                                 std::vector<float>* times_s = nullptr) const;
   /// Where the poses came from, for messages ("/tf: map -> os_sensor" or "odometry /odom").
   [[nodiscard]] const std::string& pose_source() const;
+  /// What the reader met and read past (a recording cut off), one line each, for the user.
+  [[nodiscard]] const std::vector<std::string>& warnings() const;
 
  private:
   struct Impl;

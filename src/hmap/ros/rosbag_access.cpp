@@ -53,6 +53,7 @@ BagFile::~BagFile() = default;
 
 Summary BagFile::summary() const {
   Summary s;
+  s.format = "ROS 1 bag";
   s.version = impl_->bag.getMajorVersion() * 100U + impl_->bag.getMinorVersion();
   rosbag::View view(impl_->bag);
   std::map<std::string, TopicCount> topics;
@@ -230,5 +231,11 @@ std::vector<RawTransform> BagFile::read_poses(const std::string& topic) const {
   }
   return out;
 }
+
+}  // namespace hmap::ros::access
+
+namespace hmap::ros::access {
+
+std::unique_ptr<Recording> open_ros1_bag(const std::string& path) { return std::make_unique<BagFile>(path); }
 
 }  // namespace hmap::ros::access
