@@ -15,9 +15,11 @@ DEBS := cmake ninja-build g++ libeigen3-dev libnanoflann-dev libtbb-dev libcli11
         liboctomap-dev libgdal-dev libgtest-dev libbenchmark-dev libfreetype-dev fonts-dejavu-core \
         librosbag-dev libsensor-msgs-dev libnav-msgs-dev libtf2-msgs-dev python3-rosbag python3-sensor-msgs \
         python3-nav-msgs python3-tf2-msgs clang libclang-rt-14-dev \
-        pybind11-dev python3-dev python3-numpy python3-pytest
+        pybind11-dev python3-dev python3-numpy python3-pytest libcpp-httplib-dev libjs-three
+# What `make test` adds: the browser and Node that drive the viewer's page (tests/serve/browser_test.cpp).
+TEST_DEBS := chromium nodejs
 
-.PHONY: all deps build tool demo demo-real test test-sanitize bench bench-slam bench-peers clean fuzz-ci test-tsan
+.PHONY: all deps test-deps build tool demo demo-real test test-sanitize bench bench-slam bench-peers clean fuzz-ci test-tsan
 
 all: build
 
@@ -54,7 +56,15 @@ demo-real: tool
 	$(BUILD)/bin/hmap render out/balm_os0.hmap --view oblique --out out/balm_os0_oblique.png
 	$(BUILD)/bin/hmap export out/balm_os0.hmap --ply out/balm_os0_hvoxels.ply
 
-test: build
+test-deps:
+	@missing=$$(for p in $(TEST_DEBS); do dpkg-query -W -f='$${Status}\n' $$p 2>/dev/null | grep -q '^install ok installed' || echo $$p; done); \
+	if [ -n "$$missing" ]; then \
+	  echo "installing Debian packages for the tests:" $$missing; \
+	  if [ "$$(id -u)" != 0 ]; then echo "run as root (or install: $$missing)"; exit 1; fi; \
+	  apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $$missing; \
+	fi
+
+test: build test-deps
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
 
 # hmap slam with its defaults beside Debian's Open3D ICP and KISS-ICP (built from ../shared/peers

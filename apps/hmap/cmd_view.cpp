@@ -1,0 +1,85 @@
+// hmap view: the map in a browser (three.js), served on a local address.
+
+#include <csignal>
+#include <cstdio>
+#include <memory>
+#include <string>
+
+#include "cli_common.hpp"
+#include "hmap/core/error.hpp"
+#include "hmap/io/hmap_file.hpp"
+#include "hmap/io/poses.hpp"
+#include "hmap/serve/view_server.hpp"
+
+namespace hmap::cli {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct ViewOptions {
+  std::string map;
+  std::string bind = "127.0.0.1";
+  int port = 8080;
+  std::string trajectory;
+};
+
+/// The page's folder: installed beside the tool (PREFIX/share/hmap/web), at the configured
+/// install prefix, or in the source tree when the tool runs from its build tree.
+fs::path web_root() {
+  std::error_code ec;
+  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+  for (const fs::path& dir : {ec ? fs::path() : exe.parent_path() / ".." / "share" / "hmap" / "web",
+                              fs::path(HMAP_WEB_INSTALL_DIR), fs::path(HMAP_WEB_SOURCE_DIR)}) {
+    if (!dir.empty() && fs::is_regular_file(dir / "index.html", ec)) return dir;
+  }
+  throw Error("view: the page (web/index.html) is neither installed (" HMAP_WEB_INSTALL_DIR ") nor in the source tree");
+}
+
+serve::ViewServer* g_server = nullptr;
+
+void stop_on_signal(int) {
+  // cpp-httplib's stop() shuts the listening socket down and closes it: system calls only.
+  if (g_server != nullptr) g_server->stop();
+}
+
+void run_view(const ViewOptions& o) {
+  MapFile file = load_map_file(o.map);
+  std::vector<Eigen::Vector3d> trajectory;
+  fs::path poses = o.trajectory;
+  // hmap slam --out DIR writes DIR/map.hmap beside DIR/poses.txt: its trajectory is shown too.
+  if (poses.empty() && fs::path(o.map).filename() == "map.hmap" && fs::is_regular_file(fs::path(o.map).parent_path() / "poses.txt")) {
+    poses = fs::path(o.map).parent_path() / "poses.txt";
+  }
+  if (!poses.empty()) {
+    for (const Pose& T_map_scan : read_poses(poses)) trajectory.push_back(T_map_scan.translation());
+  }
+  const std::size_t hvoxels = file.map.stats().hvoxels;
+  auto scene = std::make_shared<const view::MapScene>(std::move(file.map), std::move(file.ground), std::move(file.grid),
+                                                      std::move(trajectory));
+  serve::ViewServer server(scene, {o.bind, o.port, web_root(), HMAP_THREE_DIR});
+  server.bind();
+  std::printf("hmap view: %s, %zu HVoxels%s%s\n", o.map.c_str(), hvoxels, poses.empty() ? "" : ", trajectory ",
+              poses.empty() ? "" : poses.c_str());
+  std::printf("open %s in a browser (Ctrl-C stops)\n", server.url().c_str());
+  std::fflush(stdout);
+  g_server = &server;
+  std::signal(SIGINT, stop_on_signal);
+  std::signal(SIGTERM, stop_on_signal);
+  server.run();
+  g_server = nullptr;
+}
+
+}  // namespace
+
+void add_view_command(CLI::App& app) {
+  auto o = std::make_shared<ViewOptions>();
+  auto* cmd = app.add_subcommand("view", "Show a map in a web browser: HVoxels, 2D grid, ground, trajectory; click a cell for its column");
+  cmd->add_option("map", o->map, "Map file (.hmap)")->required();
+  cmd->add_option("--port", o->port, "Port to listen on (0: any free port)")->check(CLI::Range(0, 65535))->capture_default_str();
+  cmd->add_option("--bind", o->bind, "Address to listen on (0.0.0.0: every interface)")->capture_default_str();
+  cmd->add_option("--trajectory", o->trajectory, "Poses file (KITTI or TUM) drawn as a line; default: poses.txt beside a map.hmap of hmap slam");
+  cmd->callback([o] { run_view(*o); });
+}
+
+}  // namespace hmap::cli
