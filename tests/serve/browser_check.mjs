@@ -101,7 +101,7 @@ try {
   const shot = await send('Page.captureScreenshot', { format: 'png' });
   writeFileSync(join(outDir, points.length ? 'view_top.png' : 'view.png'), Buffer.from(shot.data, 'base64'));
   if (!points.length) {
-    result.fps = await evaluate('hmapViewer.measureFps(3000)');
+    result.fps = await evaluate('hmapViewer.measureFps(2000)');
     result.boxes_drawn_turning = await evaluate('hmapViewer.boxesDrawn');
     throw null;  // measured: nothing more to do
   }
@@ -117,6 +117,13 @@ try {
   await evaluate(`document.getElementById('layer-hvoxels').click()`);  // the checkbox, as a user would
   result.without_hvoxels = await evaluate(sample);
   await evaluate(`document.getElementById('layer-hvoxels').click()`);
+  // The height slider at 0.5 m, moved as a user would (an input event on the range); the ground
+  // patches off, which lie over the floor there.
+  await evaluate(`document.getElementById('layer-ground').click()`);
+  result.with_cut = await evaluate(`(() => { const [lo, hi] = hmapViewer.info.z_range; const s = document.getElementById('cut');
+    s.value = String(Math.round(1000 * (0.5 - lo) / (hi - lo))); s.dispatchEvent(new Event('input')); return ${sample}; })()`);
+  await evaluate(`(() => { const s = document.getElementById('cut'); s.value = '1000'; s.dispatchEvent(new Event('input')); })()`);
+  await evaluate(`document.getElementById('layer-ground').click()`);
   // A real click on the first point: its column from the page.
   await evaluate('hmapViewer.renderNow()');
   const [sx, sy] = result.with_hvoxels[0];
@@ -126,7 +133,7 @@ try {
   for (let k = 0; k < 200 && !(await evaluate('!!hmapViewer.lastColumn')); ++k) await new Promise((r) => setTimeout(r, 25));
   result.column = await evaluate('hmapViewer.lastColumn');
   result.column_panel = await evaluate(`document.getElementById('column').dataset.column ?? null`);
-  result.fps = await evaluate('hmapViewer.measureFps(1500)');
+  result.fps = await evaluate('hmapViewer.measureFps(1000)');
 } catch (e) {
   if (e !== null) result.error = e.message;
 }

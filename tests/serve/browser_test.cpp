@@ -92,7 +92,8 @@ TEST(Browser, ThePageShowsTheMapAndAnswersClicks) {
   struct Probe {
     double x, y;
   };
-  const std::vector<Probe> probes{{2.6, 1.6}, {4.9, 3.1}, {0.1, 2.1}};  // table (cell 10, 6), floor, west wall
+  // The table (cell (10, 6)), the floor (same HVoxel as under the table), the west wall.
+  const std::vector<Probe> probes{{2.6, 1.6}, {4.9, 3.1}, {0.1, 2.1}};
   nlohmann::json points = nlohmann::json::array();
   std::vector<std::array<std::uint8_t, 4>> expected;
   for (const Probe& p : probes) {
@@ -117,6 +118,10 @@ TEST(Browser, ThePageShowsTheMapAndAnswersClicks) {
     // The layer unticked: that colour is gone from there.
     EXPECT_GT(colour_distance(r["without_hvoxels"][k], expected[k]), 40) << "probe " << k << ": " << r["without_hvoxels"][k].dump();
   }
+  // The height slider at 0.5 m cuts the table top (0.7-0.75 m) away: the floor under it shows
+  // (the ground patches over it hidden for this).
+  EXPECT_LE(colour_distance(r["with_cut"][0], expected[1]), 3) << r["with_cut"][0].dump();
+  EXPECT_GT(colour_distance(r["with_cut"][0], expected[0]), 40) << r["with_cut"][0].dump();
   // The background outside the room is the page's clear colour (0x1d2024).
   EXPECT_EQ(r["background"], nlohmann::json({0x1d, 0x20, 0x24}));
 
@@ -167,9 +172,11 @@ TEST(Browser, OpensAMapOfManyTiles) {
   EXPECT_LE(r["boxes_drawn"].get<int>(), hvoxels);
   EXPECT_GT(r["fps"].get<double>(), 0.0);
   std::printf("browser, %d x %d cells: %d HVoxels in %d view tiles, page open in %d ms (Chromium up in %d ms), "
-              "%d boxes drawn, %.1f frames/s turning (SwiftShader)\n",
+              "%d boxes drawn, %.1f frames/s turning (SwiftShader); in the page: three.js and WebGL up at %.0f ms, "
+              "summary at %.0f ms, tiles drawn at %.0f ms\n",
               side, side, hvoxels, r["info"]["tiles"].get<int>(), r["open_ms"].get<int>(), r["chromium_ms"].get<int>(),
-              r["boxes_drawn"].get<int>(), r["fps"].get<double>());
+              r["boxes_drawn"].get<int>(), r["fps"].get<double>(), r["page_timing"]["module"].get<double>(),
+              r["page_timing"]["info"].get<double>(), r["page_timing"]["drawn"].get<double>());
   EXPECT_EQ(view.stop(), 0) << view.output();
   fs::remove_all(dir);
 }
