@@ -55,8 +55,9 @@ highlight.visible = false;
 scene.add(highlight);
 
 function densityColour(d, out, k) {
-  // ρ in [0, 1]: dark violet (sparse) to bright yellow (dense).
-  const t = Math.min(1, Math.max(0, d));
+  // ρ in [0, 1] (or a PVOX voxel's probability in [0.5, 1]): dark violet (sparse, unsure) to
+  // bright yellow (dense, sure).
+  const t = Math.min(1, Math.max(0, info.format === 'pvox' ? 2 * d - 1 : d));
   out[k] = 60 + 195 * t; out[k + 1] = 20 + 210 * t; out[k + 2] = 110 - 80 * t;
 }
 
@@ -135,7 +136,7 @@ function updateTiles() {
   queue.sort((p, q) => camera.position.distanceTo(p[0].centre) - camera.position.distanceTo(q[0].centre));
   pump();
   api.boxesDrawn = drawn;
-  status(`${info.hvoxels} HVoxels, ${tiles.size} tiles; ${drawn} boxes drawn` + (queue.length + inFlight ? `, loading ${queue.length + inFlight}` : ''));
+  status(`${info.hvoxels} ${info.format === 'pvox' ? 'voxels' : 'HVoxels'}, ${tiles.size} tiles; ${drawn} boxes drawn` + (queue.length + inFlight ? `, loading ${queue.length + inFlight}` : ''));
   dirty = true;
 }
 
@@ -387,6 +388,12 @@ async function start() {
   addGround(info.ground);
   addTrajectory(info.trajectory);
   setCut(1e6);
+  if (info.format === 'pvox') {
+    // Voxels of a PVOX map carry their occupancy probability where HVoxels carry ρ.
+    $('colour').value = 'density';
+    $('colour').options[1].textContent = 'by probability';
+    colourMode = 'density';
+  }
   api.timing.info = performance.now();
   setView(new URLSearchParams(location.search).get('view') === 'top' ? 'top' : 'oblique');
   await settled();

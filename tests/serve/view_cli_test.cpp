@@ -24,15 +24,17 @@ struct CliRun {
   std::string out;
 };
 
-CliRun run_view(const std::string& args) {
+CliRun run_hmap(const std::string& args) {
   CliRun r;
-  FILE* pipe = ::popen((hmap_bin() + " view " + args + " 2>&1").c_str(), "r");
+  FILE* pipe = ::popen((hmap_bin() + " " + args + " 2>&1").c_str(), "r");
   std::array<char, 4096> buf{};
   for (std::size_t n; (n = std::fread(buf.data(), 1, buf.size(), pipe)) > 0;) r.out.append(buf.data(), n);
   const int status = ::pclose(pipe);
   r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return r;
 }
+
+CliRun run_view(const std::string& args) { return run_hmap("view " + args); }
 
 std::size_t lines(const std::string& s) { return static_cast<std::size_t>(std::count(s.begin(), s.end(), '\n')); }
 
@@ -66,6 +68,27 @@ TEST_F(ViewCli, ReadsATrajectory) {
   ASSERT_FALSE(view.url().empty()) << view.output();
   const int port = std::stoi(view.url().substr(view.url().rfind(':') + 1));
   EXPECT_NE(http_get(port, "/api/map").body.find("\"trajectory\":[[0.5,0.5,1.0],[2.5,1.5,1.0]]"), std::string::npos);
+}
+
+// A PVOX map of `hmap pvox`: its occupied voxels, as many as `hmap info` counts, coloured by probability.
+TEST_F(ViewCli, ShowsAPvoxMap) {
+  {
+    std::ofstream xyz(dir_ / "cloud.xyz");
+    for (int i = 0; i < 40; ++i) {
+      for (int j = 0; j < 30; ++j) xyz << 2.0 + 0.05 * i << " " << -0.75 + 0.05 * j << " " << (i % 10 == 0 ? 0.05 * j : 0.0) << "\n";
+    }
+  }
+  const CliRun pvox = run_hmap("pvox " + (dir_ / "cloud.xyz").string() + " --out " + (dir_ / "pv").string());
+  ASSERT_EQ(pvox.code, 0) << pvox.out;
+  const CliRun info = run_hmap("info " + (dir_ / "pv/map.pvox").string() + " --json");
+  ASSERT_EQ(info.code, 0) << info.out;
+  const std::string occupied = info.out.substr(info.out.find("\"occupied_voxels\":") + 18);
+  ViewProcess view({(dir_ / "pv/map.pvox").string(), "--port", "0"});
+  ASSERT_FALSE(view.url().empty()) << view.output();
+  const int port = std::stoi(view.url().substr(view.url().rfind(':') + 1));
+  const std::string map = http_get(port, "/api/map").body;
+  EXPECT_NE(map.find("\"format\":\"pvox\""), std::string::npos) << map;
+  EXPECT_NE(map.find("\"hvoxels\":" + occupied.substr(0, occupied.find_first_of(",}"))), std::string::npos) << map << "\n" << info.out;
 }
 
 TEST_F(ViewCli, BadInputIsOneLineAndExitTwo) {

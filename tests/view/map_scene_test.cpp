@@ -218,3 +218,31 @@ TEST(MapSceneTest, SummaryListsTilesLayersAndFrames) {
 
 }  // namespace
 }  // namespace hmap::view
+
+namespace hmap::view {
+namespace {
+
+TEST(VoxelsAsColumns, EachVoxelAnHVoxelOfItsCellWithItsProbability) {
+  // Edge 0.5: two voxels stacked in cell (0, 0), one in cell (-1, 2), one given twice.
+  const std::vector<Eigen::Vector3d> centres{{0.25, 0.25, 1.25}, {0.25, 0.25, 0.75}, {-0.25, 1.25, 0.25}, {0.25, 0.25, 0.75}};
+  const std::vector<double> p{0.9, 0.6, 0.75, 0.6};
+  const HMap map = voxels_as_columns(centres, p, 0.5);
+  EXPECT_DOUBLE_EQ(map.cell_size(), 0.5);
+  EXPECT_EQ(map.stats().hvoxels, 3U);
+  const ColumnView c = map.column({0, 0});
+  ASSERT_EQ(c.size(), 2U);
+  EXPECT_TRUE(c.is_valid());  // 0.99 of the edge high: stacked voxels do not touch
+  EXPECT_FLOAT_EQ(c[0].z_min, 0.5025F);  // 0.75 − 0.495 · 0.5
+  EXPECT_FLOAT_EQ(c[0].z_max, 0.9975F);
+  EXPECT_FLOAT_EQ(c[0].density, 0.6F);
+  EXPECT_FLOAT_EQ(c[1].density, 0.9F);
+  EXPECT_FLOAT_EQ(map.column({-1, 2})[0].density, 0.75F);
+  const MapScene scene(voxels_as_columns(centres, p, 0.5), {}, std::nullopt, {}, "pvox");
+  EXPECT_EQ(nlohmann::json::parse(scene.summary_json())["format"], "pvox");
+  EXPECT_TRUE(voxels_as_columns({}, {}, 0.1).empty());
+  EXPECT_THROW((void)voxels_as_columns(centres, std::vector<double>{0.5}, 0.5), Error);
+  EXPECT_THROW((void)voxels_as_columns(centres, p, -1.0), Error);
+}
+
+}  // namespace
+}  // namespace hmap::view

@@ -42,8 +42,12 @@ const char* role_name(HVoxelRole role) {
 }  // namespace
 
 MapScene::MapScene(HMap map, std::vector<GroundPatch> ground, std::optional<OccupancyGrid> grid,
-                   std::vector<Eigen::Vector3d> trajectory)
-    : map_(std::move(map)), ground_(std::move(ground)), grid_(std::move(grid)), trajectory_(std::move(trajectory)) {
+                   std::vector<Eigen::Vector3d> trajectory, std::string format)
+    : map_(std::move(map)),
+      ground_(std::move(ground)),
+      grid_(std::move(grid)),
+      trajectory_(std::move(trajectory)),
+      format_(std::move(format)) {
   bool any = false;
   map_.for_each_column([&](const CellKey&, const ColumnView& c) {
     z_low_ = any ? std::min(z_low_, c[0].z_min) : c[0].z_min;
@@ -137,7 +141,7 @@ ColumnReport MapScene::column(double x, double y) const {
 
 std::string MapScene::summary_json() const {
   nlohmann::json j;
-  j["format"] = "hmap";
+  j["format"] = format_;
   j["cell_size"] = map_.cell_size();
   j["tile_cells"] = kViewTileCells;
   j["levels"] = kLevels;
@@ -178,6 +182,38 @@ std::string MapScene::summary_json() const {
                  {"height", grid_image_.height}};
   }
   return j.dump();
+}
+
+HMap voxels_as_columns(std::span<const Eigen::Vector3d> centres, std::span<const double> probability, double edge) {
+  if (centres.size() != probability.size()) throw Error("view: voxel centres and probabilities differ in number");
+  Params p;
+  p.map.cell_size = edge;
+  // Only the cell size matters here; the ranges tied to it are brought along so it validates.
+  p.map.max_range = std::min(p.map.max_range, 2000.0 * edge);
+  p.map.min_range = std::min(p.map.min_range, 0.5 * p.map.max_range);
+  p.slam.coarse_translation = std::min(p.slam.coarse_translation, 100.0 * edge);
+  HMap map(p);
+  struct Entry {
+    CellKey key;
+    double z, p;
+  };
+  std::vector<Entry> voxels;
+  voxels.reserve(centres.size());
+  for (std::size_t k = 0; k < centres.size(); ++k) {
+    const std::optional<CellKey> key = map.key_of(centres[k].x(), centres[k].y());
+    if (!key || !std::isfinite(centres[k].z())) throw Error("view: a voxel centre is outside the map's domain");
+    voxels.push_back({*key, centres[k].z(), probability[k]});
+  }
+  std::sort(voxels.begin(), voxels.end(),
+            [](const Entry& a, const Entry& b) { return std::tie(a.key.i, a.key.j, a.z) < std::tie(b.key.i, b.key.j, b.z); });
+  for (const Entry& v : voxels) {
+    auto column = map.column_for_update(v.key);
+    const auto lo = static_cast<float>(v.z - 0.495 * edge);
+    const auto hi = static_cast<float>(v.z + 0.495 * edge);
+    if (!column.empty() && column[column.size() - 1].z_max >= lo) continue;  // the same voxel twice
+    column.push_back({lo, hi, 1.0F, static_cast<float>(v.p)});
+  }
+  return map;
 }
 
 std::array<std::uint8_t, 4> height_colour(float z, float z_low, float z_high) {

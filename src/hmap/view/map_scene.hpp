@@ -79,9 +79,10 @@ struct ColumnReport {
 /// A map as the viewer shows it: the map file's layers and an optional trajectory.
 class MapScene {
  public:
-  /// `trajectory`: positions [m] in the map frame, in order (may be empty).
+  /// `trajectory`: positions [m] in the map frame, in order (may be empty). `format` names the
+  /// map's origin for the page: "hmap", or "pvox" for voxels_as_columns(), coloured by probability.
   MapScene(HMap map, std::vector<GroundPatch> ground, std::optional<OccupancyGrid> grid,
-           std::vector<Eigen::Vector3d> trajectory);
+           std::vector<Eigen::Vector3d> trajectory, std::string format = "hmap");
 
   [[nodiscard]] const HMap& map() const { return map_; }
   [[nodiscard]] const std::vector<GroundPatch>& ground() const { return ground_.patches(); }
@@ -106,10 +107,18 @@ class MapScene {
   GroundModel ground_;
   std::optional<OccupancyGrid> grid_;
   std::vector<Eigen::Vector3d> trajectory_;
+  std::string format_;
   GridImage grid_image_;
   float z_low_ = 0.0F;
   float z_high_ = 1.0F;
 };
+
+/// A voxel map (`.pvox`) in the viewer's terms: a column of cells of edge `edge` [m] per voxel
+/// column, each voxel an HVoxel 0.99 of the edge high (stacked voxels must not touch: columns are
+/// disjoint), its occupancy probability in the density field and 1 in the count. Throws
+/// hmap::Error when the sizes differ or the edge is not a valid cell size.
+[[nodiscard]] HMap voxels_as_columns(std::span<const Eigen::Vector3d> centres, std::span<const double> probability,
+                                     double edge);
 
 /// The view tile holding a cell.
 [[nodiscard]] inline CellKey view_tile_of(const CellKey& cell) {
