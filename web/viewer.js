@@ -348,7 +348,7 @@ async function measureFps(ms) {
 }
 
 const api = {
-  boxesDrawn: 0, lastColumn: null, info: null,
+  boxesDrawn: 0, lastColumn: null, info: null, version: 0,
   setLayer, setView, setCut, setColour, showColumn, pick, settled, renderNow, measureFps,
   /// The colour of each pixel, read back from the canvas: [width, height, RGBA bytes, bottom row first].
   pixels() {
@@ -368,12 +368,22 @@ const api = {
 };
 window.hmapViewer = api;
 
-async function start() {
-  api.timing = { module: performance.now() };
+/// Fetches the map's description and its layers; drops what an earlier map had drawn.
+async function loadMap() {
+  // The version first: a map replaced while this one loads is loaded again at its event.
+  const st = await fetch('/api/status');
+  if (!st.ok) throw new Error(`status: HTTP ${st.status}`);
+  const version = (await st.json()).version;
   const r = await fetch('/api/map');
   if (!r.ok) throw new Error(`map: HTTP ${r.status}`);
-  info = await r.json();
+  const fresh = await r.json();
+  for (const t of tiles.values()) for (const mesh of t.meshes) if (mesh) mesh.geometry.dispose();
+  tiles.clear();
+  queue.length = 0;
+  for (const name of ['hvoxels', 'grid', 'ground', 'trajectory']) layers[name].remove(...layers[name].children);
+  info = fresh;
   api.info = info;
+  api.version = version;
   const edge = info.tile_cells * info.cell_size;
   const zLo = info.z_range[0]; const zHi = info.z_range[1];
   for (const [a, b, n] of info.tiles) {
@@ -387,6 +397,11 @@ async function start() {
   }
   addGround(info.ground);
   addTrajectory(info.trajectory);
+}
+
+async function start() {
+  api.timing = { module: performance.now() };
+  await loadMap();
   setCut(1e6);
   if (info.format === 'pvox') {
     // Voxels of a PVOX map carry their occupancy probability where HVoxels carry ρ.
@@ -399,6 +414,34 @@ async function start() {
   await settled();
   api.timing.drawn = performance.now();
   loop();
+  listen();
+}
+
+// A live view (hmap map --view): a new map at each event; the camera stays where the user put it.
+let reloading = false;
+function listen() {
+  const events = new EventSource('/api/events');
+  let latest = 0;
+  const reload = async () => {
+    if (reloading || latest === api.version) return;
+    reloading = true;
+    try {
+      const fitted = !info.bounds;  // the first HVoxels of a live map: frame them
+      await loadMap();
+      if (fitted) setView('oblique'); else updateTiles();
+    } catch (err) {
+      console.error(`live view: ${err.message}`);
+    } finally {
+      reloading = false;
+    }
+    reload();  // an event that came while loading
+  };
+  events.onmessage = (e) => {
+    const s = JSON.parse(e.data);
+    if (s.progress) $('progress').textContent = s.progress;
+    latest = s.version;
+    reload();
+  };
 }
 
 api.ready = start().catch((e) => { console.error(`hmap view: ${e.message}`); status(`error: ${e.message}`); throw e; });

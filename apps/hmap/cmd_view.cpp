@@ -10,6 +10,7 @@
 #include "hmap/io/hmap_file.hpp"
 #include "hmap/io/poses.hpp"
 #include "hmap/serve/view_server.hpp"
+#include "live_view.hpp"
 #ifdef HMAP_HAVE_PVOX
 #include "pvox_output.hpp"
 #endif
@@ -27,9 +28,11 @@ struct ViewOptions {
   std::string trajectory;
 };
 
+}  // namespace
+
 /// The page's folder: installed beside the tool (PREFIX/share/hmap/web), at the configured
 /// install prefix, or in the source tree when the tool runs from its build tree.
-fs::path web_root() {
+fs::path view_web_root() {
   std::error_code ec;
   const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
   for (const fs::path& dir : {ec ? fs::path() : exe.parent_path() / ".." / "share" / "hmap" / "web",
@@ -39,6 +42,8 @@ fs::path web_root() {
   throw Error("view: the page (web/index.html) is neither installed (" HMAP_WEB_INSTALL_DIR ") nor in the source tree");
 }
 
+namespace {
+
 bool is_pvox([[maybe_unused]] const std::string& path) {
 #ifdef HMAP_HAVE_PVOX
   return is_pvox_file(path);
@@ -47,12 +52,6 @@ bool is_pvox([[maybe_unused]] const std::string& path) {
 #endif
 }
 
-serve::ViewServer* g_server = nullptr;
-
-void stop_on_signal(int) {
-  // cpp-httplib's stop() shuts the listening socket down and closes it: system calls only.
-  if (g_server != nullptr) g_server->stop();
-}
 
 #ifdef HMAP_HAVE_PVOX
 /// The `.pvox` map of `hmap pvox`: its occupied voxels (p > 0.5), coloured by probability.
@@ -90,17 +89,15 @@ void run_view(const ViewOptions& o) {
     for (const Pose& T_map_scan : read_poses(poses)) trajectory.push_back(T_map_scan.translation());
   }
   const auto scene = load_scene(o.map, std::move(trajectory));
-  serve::ViewServer server(scene, {o.bind, o.port, web_root(), HMAP_THREE_DIR});
+  serve::ViewServer server(scene, {o.bind, o.port, view_web_root(), HMAP_THREE_DIR});
   server.bind();
   std::printf("hmap view: %s, %zu %s%s%s\n", o.map.c_str(), scene->map().stats().hvoxels,
               is_pvox(o.map) ? "voxels (PVOX)" : "HVoxels", poses.empty() ? "" : ", trajectory ", poses.empty() ? "" : poses.c_str());
   std::printf("open %s in a browser (Ctrl-C stops)\n", server.url().c_str());
   std::fflush(stdout);
-  g_server = &server;
-  std::signal(SIGINT, stop_on_signal);
-  std::signal(SIGTERM, stop_on_signal);
+  stop_on_signals([&server] { server.stop(); });
   server.run();
-  g_server = nullptr;
+  stop_on_signals(nullptr);
 }
 
 }  // namespace

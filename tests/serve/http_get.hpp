@@ -16,7 +16,8 @@ struct HttpReply {
   std::string body;
 };
 
-inline HttpReply http_request(int port, const std::string& method, const std::string& target) {
+/// The reply, read until the server closes or `timeout_s` passes without a byte (an event stream).
+inline HttpReply http_request(int port, const std::string& method, const std::string& target, int timeout_s = 5) {
   HttpReply reply;
   const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
   if (fd < 0) return reply;
@@ -24,7 +25,7 @@ inline HttpReply http_request(int port, const std::string& method, const std::st
   addr.sin_family = AF_INET;
   addr.sin_port = htons(static_cast<std::uint16_t>(port));
   ::inet_pton(AF_INET, "127.0.0.1", &addr.sin_addr);
-  timeval timeout{5, 0};
+  timeval timeout{timeout_s, 0};
   ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
   if (::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) != 0) {
     ::close(fd);

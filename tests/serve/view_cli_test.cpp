@@ -9,6 +9,9 @@
 #include <array>
 #include <filesystem>
 #include <fstream>
+#include <thread>
+
+#include <nlohmann/json.hpp>
 
 #include "serve/http_get.hpp"
 #include "serve/test_map.hpp"
@@ -89,6 +92,32 @@ TEST_F(ViewCli, ShowsAPvoxMap) {
   const std::string map = http_get(port, "/api/map").body;
   EXPECT_NE(map.find("\"format\":\"pvox\""), std::string::npos) << map;
   EXPECT_NE(map.find("\"hvoxels\":" + occupied.substr(0, occupied.find_first_of(",}"))), std::string::npos) << map << "\n" << info.out;
+}
+
+// hmap map --view: the page follows the map as scans come in, then serves the saved map.
+TEST_F(ViewCli, MapServesTheMapWhileItGrows) {
+  const CliRun sim = run_hmap("simulate --scene boxes --sensor vlp16 --frames 4 --out " + (dir_ / "sim").string());
+  ASSERT_EQ(sim.code, 0) << sim.out;
+  ViewProcess map({"--kitti", (dir_ / "sim").string(), "--out", (dir_ / "m.hmap").string(), "--view", "--view-port", "0"}, "map");
+  ASSERT_FALSE(map.url().empty()) << map.output();
+  const int port = std::stoi(map.url().substr(map.url().rfind(':') + 1));
+  std::string status;
+  for (int k = 0; k < 600 && status.find("\"progress\":\"done: 4 scans") == std::string::npos; ++k) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    status = http_get(port, "/api/status").body;
+  }
+  ASSERT_NE(status.find("done: 4 scans"), std::string::npos) << status << map.output();
+  // What is served is the saved map, with the path of its scans.
+  const nlohmann::json info = nlohmann::json::parse(http_get(port, "/api/map").body);
+  EXPECT_EQ(info["hvoxels"].get<std::size_t>(), load_hmap(dir_ / "m.hmap").stats().hvoxels);
+  EXPECT_GT(info["hvoxels"].get<std::size_t>(), 0U);
+  EXPECT_EQ(info["trajectory"].size(), 4U);
+  // The event stream says so too (read for a second: it stays open).
+  const HttpReply events = http_request(port, "GET", "/api/events", 1);
+  EXPECT_EQ(events.status, 200);
+  EXPECT_NE(events.body.find("data: {\"progress\":\"done: 4 scans"), std::string::npos) << events.body;
+  EXPECT_EQ(map.stop(), 0) << map.output();
+  EXPECT_NE(map.output().find("still serving"), std::string::npos) << map.output();
 }
 
 TEST_F(ViewCli, BadInputIsOneLineAndExitTwo) {

@@ -17,10 +17,10 @@ inline std::string hmap_bin() {
   return bin != nullptr && *bin != '\0' ? bin : HMAP_BIN_PATH;
 }
 
-/// `hmap view ARGS...` running; stops it (SIGTERM) when destroyed.
+/// `hmap COMMAND ARGS...` (view, or map --view) running; stops it (SIGTERM) when destroyed.
 class ViewProcess {
  public:
-  explicit ViewProcess(const std::vector<std::string>& args) {
+  explicit ViewProcess(const std::vector<std::string>& args, const std::string& command = "view") {
     int out[2];
     if (::pipe(out) != 0) return;
     pid_ = ::fork();
@@ -29,7 +29,7 @@ class ViewProcess {
       ::dup2(out[1], 2);
       ::close(out[0]);
       ::close(out[1]);
-      std::vector<std::string> argv_s{hmap_bin(), "view"};
+      std::vector<std::string> argv_s{hmap_bin(), command};
       argv_s.insert(argv_s.end(), args.begin(), args.end());
       std::vector<char*> argv;
       for (std::string& a : argv_s) argv.push_back(a.data());

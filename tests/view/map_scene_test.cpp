@@ -246,3 +246,26 @@ TEST(VoxelsAsColumns, EachVoxelAnHVoxelOfItsCellWithItsProbability) {
 
 }  // namespace
 }  // namespace hmap::view
+
+namespace hmap::view {
+namespace {
+
+TEST(Snapshot, CopiesTheMapGroundAndGrid) {
+  HMap map(tiny_params());
+  map.column_for_update({3, -4}).push_back(hv(0.0F, 1.0F, 5.0F, 0.8F));
+  OccupancyGrid grid(0.5, 0.12, 0.97);
+  grid.set({3, -4}, log_odds(0.97));
+  const GroundPatch patch{Eigen::Vector3d(1.0, -2.0, 0.0), Eigen::Vector3d::UnitZ(), 0.5, -1};
+  const MapScene s = snapshot(map, std::span(&patch, 1), &grid, {{1.0, 2.0, 3.0}});
+  map.column_for_update({3, -4}).push_back(hv(2.0F, 3.0F, 5.0F, 0.8F));  // the original changes later
+  EXPECT_EQ(s.map().stats().hvoxels, 1U);
+  EXPECT_EQ(s.map().column({3, -4})[0], hv(0.0F, 1.0F, 5.0F, 0.8F));
+  EXPECT_EQ(s.ground().size(), 1U);
+  EXPECT_NEAR(*s.grid()->probability_at({3, -4}), 0.97, 1e-6);
+  EXPECT_EQ(s.grid()->known_cells(), 1U);
+  EXPECT_EQ(s.trajectory().size(), 1U);
+  EXPECT_EQ(snapshot(map, {}, nullptr, {}).grid(), std::nullopt);
+}
+
+}  // namespace
+}  // namespace hmap::view

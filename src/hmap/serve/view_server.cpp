@@ -14,6 +14,8 @@
 #include <fstream>
 #include <sstream>
 
+#include <nlohmann/json.hpp>
+
 #include "hmap/core/error.hpp"
 
 namespace hmap::serve {
@@ -150,6 +152,27 @@ ViewServer::ViewServer(std::shared_ptr<const view::MapScene> initial_scene, Serv
     }
     res.set_content(view::column_json(scene()->column(*x, *y)), "application/json");
   });
+  s.Get("/api/status", [this](const httplib::Request&, httplib::Response& res) {
+    res.set_content(status_json(), "application/json");
+  });
+  // One event per new map; a comment every 10 s keeps proxies and the browser from closing it.
+  s.Get("/api/events", [this](const httplib::Request&, httplib::Response& res) {
+    auto sent = std::make_shared<std::uint64_t>(0);
+    res.set_chunked_content_provider("text/event-stream", [this, sent](std::size_t, httplib::DataSink& sink) {
+      std::unique_lock lock(scene_mutex_);
+      scene_changed_.wait_for(lock, std::chrono::seconds(10), [&] { return stopping_ || version_ != *sent; });
+      if (stopping_) return false;
+      std::string chunk = ": still here\n\n";
+      if (version_ != *sent) {
+        *sent = version_;
+        lock.unlock();
+        chunk = "data: " + status_json() + "\n\n";
+      } else {
+        lock.unlock();
+      }
+      return sink.write(chunk.data(), chunk.size());
+    });
+  });
   s.Get(R"(/.*)", [this](const httplib::Request& req, httplib::Response& res) {
     const std::optional<fs::path> file = static_file(req.path, options_);
     if (!file) return refuse(res, 404, "not found");
@@ -208,14 +231,29 @@ void ViewServer::run() {
 }
 
 void ViewServer::stop() {
+  {
+    const std::lock_guard lock(scene_mutex_);
+    stopping_ = true;
+  }
+  scene_changed_.notify_all();  // the event streams end
   if (http_) http_->server.stop();
 }
 
 std::string ViewServer::url() const { return "http://" + options_.bind + ":" + std::to_string(port_) + "/"; }
 
-void ViewServer::set_scene(std::shared_ptr<const view::MapScene> scene) {
+void ViewServer::set_scene(std::shared_ptr<const view::MapScene> scene, std::string progress) {
+  {
+    const std::lock_guard lock(scene_mutex_);
+    scene_ = std::move(scene);
+    progress_ = std::move(progress);
+    ++version_;
+  }
+  scene_changed_.notify_all();
+}
+
+std::string ViewServer::status_json() const {
   const std::lock_guard lock(scene_mutex_);
-  scene_ = std::move(scene);
+  return nlohmann::json{{"version", version_}, {"progress", progress_}}.dump();
 }
 
 std::shared_ptr<const view::MapScene> ViewServer::scene() const {

@@ -10,8 +10,12 @@
 //   GET /api/tile?a=A&b=B&level=L                   box records (map_scene.hpp), octet-stream
 //   GET /api/grid                                   the grid image's bytes, octet-stream
 //   GET /api/column?x=X&y=Y                         column_json()
+//   GET /api/status                                 {"version": V, "progress": "..."}: which map is served
+//   GET /api/events                                 server-sent events: the same object at each new map
 //   anything else                                   404; a malformed query 400; other methods 405
 
+#include <condition_variable>
+#include <cstdint>
 #include <filesystem>
 #include <memory>
 #include <mutex>
@@ -55,18 +59,25 @@ class ViewServer {
   [[nodiscard]] int port() const { return port_; }
   /// "http://ADDRESS:PORT/".
   [[nodiscard]] std::string url() const;
-  /// Replaces the map served (a live view); requests in flight keep the one they started with.
-  void set_scene(std::shared_ptr<const view::MapScene> scene);
+  /// Replaces the map served (a live view) and tells the pages listening to /api/events, with a
+  /// line of progress ("scan 12 of 80"); requests in flight keep the map they started with.
+  void set_scene(std::shared_ptr<const view::MapScene> scene, std::string progress = {});
 
  private:
   [[nodiscard]] std::shared_ptr<const view::MapScene> scene() const;
+  /// {"version": V, "progress": "..."} of the map served.
+  [[nodiscard]] std::string status_json() const;
 
   struct Http;  // cpp-httplib, kept out of this header
   std::unique_ptr<Http> http_;
   ServerOptions options_;
   int port_ = 0;
   mutable std::mutex scene_mutex_;
+  std::condition_variable scene_changed_;
   std::shared_ptr<const view::MapScene> scene_;
+  std::uint64_t version_ = 1;
+  std::string progress_;
+  bool stopping_ = false;
 };
 
 }  // namespace hmap::serve

@@ -184,6 +184,22 @@ std::string MapScene::summary_json() const {
   return j.dump();
 }
 
+MapScene snapshot(const HMap& map, std::span<const GroundPatch> ground, const OccupancyGrid* grid,
+                  std::vector<Eigen::Vector3d> trajectory) {
+  HMap copy(map.params());
+  map.for_each_column([&](const CellKey& key, const ColumnView& c) {
+    auto column = copy.column_for_update(key);
+    for (const HVoxel& v : c) column.push_back(v);
+  });
+  std::optional<OccupancyGrid> grid_copy;
+  if (grid != nullptr) {
+    grid_copy.emplace(grid->cell_size(), probability(grid->clamp_min_log_odds()), probability(grid->clamp_max_log_odds()));
+    grid->for_each_cell([&](const CellKey& key, float l) { grid_copy->set(key, l); });
+  }
+  return MapScene(std::move(copy), std::vector<GroundPatch>(ground.begin(), ground.end()), std::move(grid_copy),
+                  std::move(trajectory));
+}
+
 HMap voxels_as_columns(std::span<const Eigen::Vector3d> centres, std::span<const double> probability, double edge) {
   if (centres.size() != probability.size()) throw Error("view: voxel centres and probabilities differ in number");
   Params p;

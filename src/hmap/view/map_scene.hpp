@@ -113,6 +113,11 @@ class MapScene {
   float z_high_ = 1.0F;
 };
 
+/// A scene of copies of a map being built (the live view of `hmap map --view`): the HVoxels, the
+/// ground patches and the grid (may be null) as they are now; O(size of the map).
+[[nodiscard]] MapScene snapshot(const HMap& map, std::span<const GroundPatch> ground, const OccupancyGrid* grid,
+                                std::vector<Eigen::Vector3d> trajectory);
+
 /// A voxel map (`.pvox`) in the viewer's terms: a column of cells of edge `edge` [m] per voxel
 /// column, each voxel an HVoxel 0.99 of the edge high (stacked voxels must not touch: columns are
 /// disjoint), its occupancy probability in the density field and 1 in the count. Throws
