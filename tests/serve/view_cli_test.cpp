@@ -120,6 +120,25 @@ TEST_F(ViewCli, MapServesTheMapWhileItGrows) {
   EXPECT_NE(map.output().find("still serving"), std::string::npos) << map.output();
 }
 
+// hmap slam --view: the same, with the estimated path.
+TEST_F(ViewCli, SlamServesTheMapWhileItGrows) {
+  const CliRun sim = run_hmap("simulate --scene boxes --sensor vlp16 --frames 3 --out " + (dir_ / "sim").string());
+  ASSERT_EQ(sim.code, 0) << sim.out;
+  ViewProcess slam({"--kitti", (dir_ / "sim").string(), "--out", (dir_ / "slam").string(), "--view", "--view-port", "0"}, "slam");
+  ASSERT_FALSE(slam.url().empty()) << slam.output();
+  const int port = std::stoi(slam.url().substr(slam.url().rfind(':') + 1));
+  std::string status;
+  for (int k = 0; k < 600 && status.find("\"progress\":\"done: 3 scans") == std::string::npos; ++k) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    status = http_get(port, "/api/status").body;
+  }
+  ASSERT_NE(status.find("done: 3 scans"), std::string::npos) << status << slam.output();
+  const nlohmann::json info = nlohmann::json::parse(http_get(port, "/api/map").body);
+  EXPECT_EQ(info["hvoxels"].get<std::size_t>(), load_hmap(dir_ / "slam/map.hmap").stats().hvoxels);
+  EXPECT_EQ(info["trajectory"].size(), 3U);
+  EXPECT_EQ(slam.stop(), 0) << slam.output();
+}
+
 TEST_F(ViewCli, BadInputIsOneLineAndExitTwo) {
   const CliRun missing = run_view((dir_ / "nothing.hmap").string() + " --port 0");
   EXPECT_EQ(missing.code, 2) << missing.out;

@@ -149,6 +149,7 @@ TEST_F(ServerTest, RefusesUnknownRequestsAndMethods) {
   EXPECT_EQ(http_get(port(), "/api/column?x=1").status, 400);
   EXPECT_EQ(http_get(port(), "/api/column?x=nan&y=0").status, 400);
   EXPECT_EQ(http_get(port(), "/api/column?x=1e300&y=0").status, 400);
+  EXPECT_EQ(http_get(port(), "/api/column?x=9e8&y=0").status, 400);  // 1.8e9 cells out: beyond the map's keys
   EXPECT_EQ(http_request(port(), "POST", "/api/map").status, 405);
   EXPECT_EQ(http_request(port(), "DELETE", "/index.html").status, 405);
   EXPECT_EQ(http_request(port(), "PUT", "/three/secret.js").status, 405);

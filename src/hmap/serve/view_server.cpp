@@ -150,7 +150,11 @@ ViewServer::ViewServer(std::shared_ptr<const view::MapScene> initial_scene, Serv
     if (!x || !y || !std::isfinite(*x) || !std::isfinite(*y) || std::abs(*x) > 1e9 || std::abs(*y) > 1e9) {
       return refuse(res, 400, "column: x and y (finite numbers, metres) expected");
     }
-    res.set_content(view::column_json(scene()->column(*x, *y)), "application/json");
+    try {
+      res.set_content(view::column_json(scene()->column(*x, *y)), "application/json");
+    } catch (const Error& e) {  // beyond the map's ±2^30 cells
+      refuse(res, 400, one_line(e.what()));
+    }
   });
   s.Get("/api/status", [this](const httplib::Request&, httplib::Response& res) {
     res.set_content(status_json(), "application/json");
