@@ -151,12 +151,12 @@ TEST(Browser, ThePageShowsTheMapAndAnswersClicks) {
 
 // A map of several view tiles as a user opens it (oblique view, shaded): tiles arrive, are drawn
 // at their level of detail, the camera turns. HMAP_VIEW_BENCH_CELLS=N makes the room N × N cells
-// (the README's measurements); by default 160 × 160, about 36,000 HVoxels in 9 view tiles.
+// (the README's measurements); by default 100 × 100, about 14,000 HVoxels in 4 view tiles.
 TEST(Browser, OpensAMapOfManyTiles) {
   const Tools tools = find_tools();
   if (!tools.missing.empty()) GTEST_SKIP() << tools.missing;
   const char* env = std::getenv("HMAP_VIEW_BENCH_CELLS");
-  const int side = env != nullptr && *env != '\0' ? std::atoi(env) : 160;
+  const int side = env != nullptr && *env != '\0' ? std::atoi(env) : 100;
   const fs::path dir = fs::temp_directory_path() / ("hmap_browser_big_" + std::to_string(::getpid()));
   fs::create_directories(dir);
   save_room(dir / "room.hmap", side, side);
