@@ -18,9 +18,12 @@ DEBS := cmake ninja-build g++ libeigen3-dev libnanoflann-dev libtbb-dev libcli11
         librosbag-dev libsensor-msgs-dev libnav-msgs-dev libtf2-msgs-dev python3-rosbag python3-sensor-msgs \
         python3-nav-msgs python3-tf2-msgs clang libclang-rt-14-dev \
         pybind11-dev python3-dev python3-numpy python3-pytest \
-        liblz4-dev libsqlite3-dev nodejs npm
+        liblz4-dev libsqlite3-dev nodejs npm libcpp-httplib-dev libjs-three
+# What `make test` adds: the browser that shows the viewer's page (tests/serve/browser_test.cpp,
+# driven by Node, which DEBS holds).
+TEST_DEBS := chromium
 
-.PHONY: all deps build tool demo demo-real test test-sanitize ros2-test-deps bench bench-slam bench-peers clean fuzz-ci test-tsan
+.PHONY: all deps test-deps build tool demo demo-real test test-sanitize ros2-test-deps bench bench-slam bench-peers clean fuzz-ci test-tsan
 
 all: build
 
@@ -64,7 +67,15 @@ demo-real: tool
 ros2-test-deps: deps
 	npm ci --prefix tests/ros2 --no-audit --no-fund
 
-test: build ros2-test-deps
+test-deps:
+	@missing=$$(for p in $(TEST_DEBS); do dpkg-query -W -f='$${Status}\n' $$p 2>/dev/null | grep -q '^install ok installed' || echo $$p; done); \
+	if [ -n "$$missing" ]; then \
+	  echo "installing Debian packages for the tests:" $$missing; \
+	  if [ "$$(id -u)" != 0 ]; then echo "run as root (or install: $$missing)"; exit 1; fi; \
+	  apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $$missing; \
+	fi
+
+test: build test-deps ros2-test-deps
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
 
 # hmap slam with its defaults beside Debian's Open3D ICP and KISS-ICP (built from ../shared/peers
@@ -90,7 +101,7 @@ SAN_CONFIGURE = CC=clang CXX=clang++ cmake -S . -B $(BUILD_SAN) -G Ninja -DCMAKE
 # at the end of the run); the code it runs is run under ASan by the CLI tests and fuzzed.
 SAN_EXCLUDE := ^(BoundedTest.AGibibyteOfRandomBytesIsRejected|TornFileTest\..*|readme_commands)$$
 
-test-sanitize: deps ros2-test-deps
+test-sanitize: deps test-deps ros2-test-deps
 	$(SAN_CONFIGURE)
 	cmake --build $(BUILD_SAN) -j $(JOBS)
 	cd $(BUILD_SAN) && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 \

@@ -39,6 +39,9 @@ void configure_app(CLI::App& app) {
 #ifdef HMAP_HAVE_ROS
   add_bag_info_command(app);
 #endif
+#ifdef HMAP_HAVE_VIEW
+  add_view_command(app);
+#endif
   auto* params_cmd = app.add_subcommand("params", "Print every parameter of a preset with its unit and its valid range");
   auto preset = std::make_shared<std::string>("outdoor");
   params_cmd->add_option("--preset", *preset, "indoor or outdoor")->capture_default_str();

@@ -205,5 +205,6 @@ void add_bag_info_command(CLI::App& app);  // only with HMAP_HAVE_ROS
 void add_slam_command(CLI::App& app);  // apps/hmap/cmd_slam.cpp, when HMAP_HAVE_SLAM
 void add_pvox_command(CLI::App& app);        // apps/hmap/cmd_pvox.cpp, when HMAP_HAVE_PVOX
 void add_experiment_command(CLI::App& app);  // apps/hmap/cmd_experiment.cpp, when HMAP_HAVE_PVOX
+void add_view_command(CLI::App& app);        // apps/hmap/cmd_view.cpp, when HMAP_HAVE_VIEW
 
 }  // namespace hmap::cli

@@ -37,6 +37,10 @@ void run_demo(const DemoOptions& o) {
   std::string summary;
   write_folder_atomic(o.out, [&](const std::filesystem::path& dir) { summary = run_demo_into(o, dir); });
   std::fputs(summary.c_str(), stdout);
+#ifdef HMAP_HAVE_VIEW
+  std::printf("To turn it around in a browser: hmap view %s/map.hmap --trajectory %s/sequence/poses.txt, then open the URL it prints.\n",
+              o.out.c_str(), o.out.c_str());
+#endif
 }
 
 std::string run_demo_into(const DemoOptions& o, const std::filesystem::path& dir) {

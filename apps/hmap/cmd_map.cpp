@@ -9,6 +9,9 @@
 #include "hmap/io/hmap_file.hpp"
 #include "hmap/maps/mapper.hpp"
 #include "hmap/occupancy/hybrid_mapper.hpp"
+#ifdef HMAP_HAVE_VIEW
+#include "live_view.hpp"
+#endif
 
 namespace hmap::cli {
 
@@ -18,6 +21,9 @@ struct MapOptions : InputOptions {
   ParamOptions params;
   std::string out;
   bool hvoxels_only = false;
+#ifdef HMAP_HAVE_VIEW
+  LiveViewOptions view;
+#endif
 };
 
 void run_map(const MapOptions& o) {
@@ -46,6 +52,15 @@ void run_map(const MapOptions& o) {
   // grid of eq. (3)-(4), all saved; --hvoxels-only keeps section III alone (faster).
   HybridMapper hybrid(params);
   Mapper mapper(params);
+#ifdef HMAP_HAVE_VIEW
+  LiveView live(o.view);
+  // The map as it is now, to the page: after every scan, at most once a second.
+  std::vector<Eigen::Vector3d> path;
+  const auto show = [&](const std::string& progress, bool final) {
+    if (o.hvoxels_only) live.update(mapper.map(), {}, nullptr, path, progress, final);
+    else live.update(hybrid.map(), hybrid.ground_patches(), &hybrid.grid(), path, progress, final);
+  };
+#endif
   CloudReadStats read_stats;
   ScanStats total;
   std::size_t no_ground = 0, grid_rays = 0;
@@ -76,6 +91,12 @@ void run_map(const MapOptions& o) {
     total.dropped_range += s.dropped_range;
     total.extrusion.removed += s.extrusion.removed;
     progress.update(k + 1, ms_integrate / static_cast<double>(k + 1));
+#ifdef HMAP_HAVE_VIEW
+    if (o.view.enabled) {
+      path.push_back((*src.T_map_scan)[k].translation());
+      show(format("scan %zu of %zu", k + 1, src.scans.size()), false);
+    }
+#endif
   }
   progress.finish();
   // Nothing kept from any scan: not a map but a wrong input (a pose or intrinsics file given as
@@ -118,6 +139,12 @@ void run_map(const MapOptions& o) {
                 "ground patch near them and left the grid alone.\n",
                 occupied, free_cells, hybrid.ground_patches().size(), no_ground, grid_rays + no_ground);
   }
+#ifdef HMAP_HAVE_VIEW
+  if (o.view.enabled) {
+    show(format("done: %zu scans, saved to %s", src.scans.size(), o.out.c_str()), true);
+    live.serve_until_stopped();
+  }
+#endif
 }
 
 }  // namespace
@@ -130,6 +157,9 @@ void add_map_command(CLI::App& app) {
   cmd->add_flag("--hvoxels-only", opts->hvoxels_only,
                 "Build the HMAP alone (section III), without the ground patches and the 2D grid");
   opts->params.add_to(*cmd);
+#ifdef HMAP_HAVE_VIEW
+  opts->view.add_to(*cmd);
+#endif
   cmd->callback([opts] { run_map(*opts); });
 }
 

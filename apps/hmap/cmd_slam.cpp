@@ -17,6 +17,9 @@
 #include "hmap/io/poses.hpp"
 #include "hmap/slam/hmap_slam.hpp"
 #include "render.hpp"
+#ifdef HMAP_HAVE_VIEW
+#include "live_view.hpp"
+#endif
 #ifdef HMAP_HAVE_ROS
 #include "hmap/ros/bag_reader.hpp"
 #endif
@@ -34,6 +37,9 @@ struct SlamOptions : InputOptions {
   std::string imu_topic;
   std::vector<double> imu_rpy;
   std::string out;
+#ifdef HMAP_HAVE_VIEW
+  LiveViewOptions view;
+#endif
 };
 
 /// A pose file with one pose per scan (more allowed when --scans cut the sequence); in a KITTI
@@ -168,6 +174,10 @@ void run_slam(const SlamOptions& o) {
                     "skipped,eig0,eig1,eig2,guess_x,guess_y,guess_yaw,x,y,yaw,z,roll,pitch,attitude_fit,surfaces,surface_rms,"
                     "observable_x,observable_y,observable_z,observable_roll,observable_pitch,observable_yaw,planar_passes,deskewed,"
                     "imu,tilt_hypotheses,tilt_from_floor,ms\n";
+#ifdef HMAP_HAVE_VIEW
+  LiveView live(o.view);  // the map and the estimated path in the browser, as they grow
+  std::vector<Eigen::Vector3d> path;
+#endif
   Progress progress("slam", n);
   std::size_t deskewed = 0;
   std::vector<float> point_times;
@@ -231,6 +241,12 @@ void run_slam(const SlamOptions& o) {
       score_sum += step.match.skipped ? 0.0 : step.match.score;
     }
     progress.update(k + 1, ms_total / static_cast<double>(k + 1));
+#ifdef HMAP_HAVE_VIEW
+    if (o.view.enabled) {
+      path.push_back(estimate.back().translation());
+      live.update(slam.map(), {}, nullptr, path, format("scan %zu of %zu", k + 1, n));
+    }
+#endif
   }
   progress.finish();
 
@@ -270,6 +286,12 @@ void run_slam(const SlamOptions& o) {
                      : "estimated from the scans (floor normal + map surfaces)",
       chosen_text.empty() ? "" : " Chosen from the first scan:", chosen_text.c_str(),
       imu ? (" IMU: " + std::to_string(imu_samples->size()) + " samples from " + imu_from + ".").c_str() : "", deskewed, n);
+#ifdef HMAP_HAVE_VIEW
+  if (o.view.enabled) {
+    live.update(slam.map(), {}, nullptr, path, format("done: %zu scans, written to %s", n, o.out.c_str()), true);
+    live.serve_until_stopped();
+  }
+#endif
 }
 
 }  // namespace
@@ -295,6 +317,9 @@ void add_slam_command(CLI::App& app) {
       ->expected(3);
   cmd->add_option("--out,-o", opts->out, "Output folder")->required();
   opts->params.add_to(*cmd);
+#ifdef HMAP_HAVE_VIEW
+  opts->view.add_to(*cmd);
+#endif
   cmd->callback([opts] { run_slam(*opts); });
 }
 

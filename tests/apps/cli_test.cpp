@@ -196,6 +196,9 @@ TEST_F(CliTest, EvalTrajReportsTheKnownOffset) {
 TEST_F(CliTest, DemoWritesMapPicturesAndReport) {
   const CmdResult r = run("demo --frames 20 --out " + path("demo"));
   ASSERT_EQ(r.code, 0) << r.out;
+#ifdef HMAP_HAVE_VIEW
+  EXPECT_NE(r.out.find("hmap view " + path("demo") + "/map.hmap"), std::string::npos) << r.out;  // how to see it
+#endif
   for (const char* f : {"report.md", "map.hmap", "map_hvoxels.ply", "map_top.png", "map_oblique.png", "sequence/poses.txt"}) {
     EXPECT_TRUE(std::filesystem::exists(dir_ / "demo" / f)) << f;
   }
