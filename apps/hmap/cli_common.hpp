@@ -102,6 +102,13 @@ struct ScanSource {
   std::string description;                    ///< e.g. "50 RGB-D frames of DIR (7-Scenes)"
 };
 
+/// One scan as read from its source, with what reading it counted and, when asked, its points' times.
+struct ReadScan {
+  PointCloud cloud;
+  CloudReadStats stats;
+  std::vector<float> times_s;
+};
+
 /// The scans every scan-reading command takes, one definition of the options and their help:
 /// --kitti DIR or scan files, --poses FILE, --scans N, and the sensor inputs (RGB-D folders, bags,
 /// --up / --rotation). A command adopts them by deriving its options struct from InputOptions and

@@ -7,6 +7,7 @@
 #include "hmap/core/sensor_profile.hpp"
 #include "hmap/io/atomic_file.hpp"
 #include "hmap/io/hmap_file.hpp"
+#include "hmap/io/prefetch.hpp"
 #include "hmap/maps/mapper.hpp"
 #include "hmap/occupancy/hybrid_mapper.hpp"
 #ifdef HMAP_HAVE_VIEW
@@ -34,9 +35,10 @@ void run_map(const MapOptions& o) {
   // Defaults the first scan can tell, as hmap slam takes them: the preset from the sensor's reach
   // when none is named, the height gap from a spinning LiDAR's ring spacing.
   std::string chosen_text;
+  CloudReadStats first_stats;
+  PointCloud first;
   if (!src.scans.empty()) {
-    CloudReadStats first_stats;
-    const PointCloud first = src.read(0, first_stats);
+    first = src.read(0, first_stats);
     std::string preset_line;
     const std::string preset_name = o.params.preset_for(first, preset_line);
     if (!preset_line.empty()) {
@@ -66,8 +68,18 @@ void run_map(const MapOptions& o) {
   std::size_t no_ground = 0, grid_rays = 0;
   double ms_integrate = 0.0;
   Progress progress("mapping", src.scans.size());
+  // From a bag or an RGB-D folder, scan k + 1 is decoded while scan k is integrated; the first,
+  // read above, is not read again.
+  Prefetcher<ReadScan> scans(src.scans.size(), [&](std::size_t k) {
+    if (k == 0) return ReadScan{std::move(first), first_stats, {}};
+    ReadScan r;
+    r.cloud = src.read(k, r.stats);
+    return r;
+  }, src.frames ? ReadAhead::kYes : ReadAhead::kNo);  // bags and RGB-D frames decode; files copy
   for (std::size_t k = 0; k < src.scans.size(); ++k) {
-    const PointCloud cloud = src.read(k, read_stats);
+    const ReadScan next = scans.next();
+    const PointCloud& cloud = next.cloud;
+    read_stats += next.stats;
     const auto t0 = Clock::now();
     ScanStats s;
     for_scan(src, k, [&] {

@@ -6,6 +6,7 @@
 #include <cstdio>
 
 #include "cli_common.hpp"
+#include "hmap/io/prefetch.hpp"
 #include "hmap/core/error.hpp"
 #include "hmap/core/format.hpp"
 #include "hmap/core/sensor_profile.hpp"
@@ -180,10 +181,23 @@ void run_slam(const SlamOptions& o) {
 #endif
   Progress progress("slam", n);
   std::size_t deskewed = 0;
-  std::vector<float> point_times;
+  // From a bag or an RGB-D folder, scan k + 1 is decoded while scan k is matched; the first, read
+  // above, is not read again.
+  Prefetcher<ReadScan> scans(n, [&](std::size_t k) {
+    ReadScan r;
+    if (k == 0) {
+      r.cloud = std::move(*first);
+      r.times_s = std::move(first_times);
+    } else {
+      r.cloud = src.read(k, r.stats, &r.times_s);
+    }
+    return r;
+  }, src.frames ? ReadAhead::kYes : ReadAhead::kNo);  // bags and RGB-D frames decode; files copy
   for (std::size_t k = 0; k < n; ++k) {
-    if (k == 0) point_times = first_times;
-    const PointCloud cloud = k == 0 && first ? std::move(*first) : src.read(k, read_stats, &point_times);
+    ReadScan next = scans.next();
+    read_stats += next.stats;
+    const PointCloud cloud = std::move(next.cloud);
+    const std::vector<float> point_times = std::move(next.times_s);
     const auto t0 = Clock::now();
     std::optional<slam::Attitude> att;
     if (attitude) att = slam::attitude_of((*attitude)[k]);
