@@ -14,6 +14,10 @@
 #include <functional>
 #include <fstream>
 #include <sstream>
+#include <vector>
+#include <iterator>
+#include <tuple>
+#include <set>
 
 #include <nlohmann/json.hpp>
 
@@ -22,6 +26,7 @@
 #include "hmap/io/kitti.hpp"
 #include "hmap/io/poses.hpp"
 #include "hmap/ros/bag_reader.hpp"
+#include "hmap/ros/mcap_reader.hpp"
 
 namespace hmap {
 namespace {
@@ -123,6 +128,62 @@ double max_pose_error(const Pose& a, const Pose& b) {
 }
 
 const char* const kRecordings[] = {"zstd.mcap", "lz4.mcap", "none.mcap", "bigendian.mcap", "nosummary.mcap", "r2mcap", "db3"};
+
+/// Every message of a file as (topic, log time, data), in the order messages() lists them.
+std::vector<std::tuple<std::string, std::uint64_t, std::vector<std::uint8_t>>> all_messages(const ros::mcap::Reader& r) {
+  std::set<std::uint16_t> ids;
+  for (const auto& [id, ch] : r.info().channels) ids.insert(id);
+  std::vector<std::tuple<std::string, std::uint64_t, std::vector<std::uint8_t>>> out;
+  for (const auto& ref : r.messages(ids)) out.emplace_back(r.info().channels.at(ref.channel).topic, ref.log_time, r.read(ref));
+  return out;
+}
+
+TEST_F(Ros2RecordingTest, MessageIndexesListWhatTheChunksHold) {
+  // The writer's files with a summary carry a Message Index per channel and chunk: the listing
+  // comes from them (no chunk decompressed to list), and must give what a linear scan of the same
+  // messages gives (nosummary.mcap: the zstd file without summary, scanned record by record).
+  const ros::mcap::Reader scanned(ros::mcap::file_source(dir_ / "nosummary.mcap"), "nosummary.mcap");
+  ASSERT_FALSE(scanned.info().indexed);
+  const auto expected = all_messages(scanned);
+  ASSERT_EQ(expected.size(), scanned.info().messages);
+  for (const std::string name : {"zstd.mcap", "lz4.mcap", "none.mcap"}) {
+    const ros::mcap::Reader r(ros::mcap::file_source(dir_ / name), name);
+    ASSERT_TRUE(r.info().indexed) << name;
+    for (const auto& chunk : r.info().chunks) {
+      EXPECT_EQ(chunk.message_indexes.size(), chunk.channels.size()) << name << ": a channel without its index";
+    }
+    EXPECT_EQ(all_messages(r), expected) << name;
+  }
+}
+
+TEST_F(Ros2RecordingTest, AMessageIndexPointingAmissIsRefusedNamingTheFile) {
+  // An entry's offset moved by one byte points into a record, not at one: refused on reading.
+  std::ifstream in(dir_ / "none.mcap", std::ios::binary);
+  std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const ros::mcap::Reader good(ros::mcap::memory_source(bytes), "none.mcap");
+  const auto& chunk = good.info().chunks.at(0);
+  ASSERT_FALSE(chunk.message_indexes.empty());
+  // Message Index: opcode, length (8), channel (2), entries' byte length (4), then (time, offset).
+  const std::uint64_t entry = chunk.message_indexes.begin()->second + 9 + 2 + 4;
+  bytes[static_cast<std::size_t>(entry + 8)] += 1;  // the offset's low byte
+  // The Data End record's CRC, which covers the indexes, set to 0 (not written): the damage must
+  // be found by the index check itself. The footer (opcode, length, summary start, ...) precedes
+  // the closing magic; Data End's 13 bytes precede the summary.
+  const std::size_t footer = bytes.size() - 8 - 20 - 9;
+  std::uint64_t summary_start = 0;
+  for (int i = 7; i >= 0; --i) summary_start = (summary_start << 8) | bytes[footer + 9 + static_cast<std::size_t>(i)];
+  ASSERT_EQ(bytes[static_cast<std::size_t>(summary_start - 13)], 0x0F);
+  std::fill_n(bytes.begin() + static_cast<std::ptrdiff_t>(summary_start - 13 + 9), 4, std::uint8_t{0});
+  const ros::mcap::Reader bad(ros::mcap::memory_source(bytes), "damaged.mcap");
+  std::set<std::uint16_t> ids{chunk.message_indexes.begin()->first};
+  const auto refs = bad.messages(ids);
+  ASSERT_FALSE(refs.empty());
+  const std::string error = error_of([&] {
+    for (const auto& ref : refs) (void)bad.read(ref);
+  });
+  EXPECT_NE(error.find("damaged.mcap"), std::string::npos) << error;
+  EXPECT_NE(error.find("message index points"), std::string::npos) << error;
+}
 
 TEST_F(Ros2RecordingTest, InfoCountsWhatWasWritten) {
   for (const std::string name : kRecordings) {

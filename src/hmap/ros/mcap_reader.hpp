@@ -53,6 +53,9 @@ struct ChunkInfo {
   std::uint32_t uncompressed_crc = 0;  ///< 0: not written
   std::string compression;             ///< "", zstd or lz4
   std::set<std::uint16_t> channels;    ///< from the chunk index; empty: unknown (look inside)
+  /// Where each channel's Message Index record for this chunk lies in the file (from the chunk
+  /// index): the messages are then listed without decompressing the chunk.
+  std::map<std::uint16_t, std::uint64_t> message_indexes;
 };
 
 /// Where one message's data lies: in chunk `chunk`'s uncompressed records, or in the file itself
@@ -62,7 +65,10 @@ struct MessageRef {
   std::uint64_t log_time = 0;  ///< [ns]
   std::uint16_t channel = 0;
   std::size_t chunk = kNoChunk;
-  std::uint64_t offset = 0;  ///< of the message data
+  /// Length kFromRecord: listed by a Message Index, whose offset is the message record's, not
+  /// its data's; read() takes the length from the record and checks it there.
+  static constexpr std::uint64_t kFromRecord = static_cast<std::uint64_t>(-1);
+  std::uint64_t offset = 0;  ///< of the message data (of the message record when length is kFromRecord)
   std::uint64_t length = 0;
 };
 
@@ -86,7 +92,9 @@ class Reader {
   Reader(std::shared_ptr<const ByteSource> source, std::string name);
 
   [[nodiscard]] const Info& info() const { return info_; }
-  /// The messages of `channels` in file order (skipping chunks whose index says they hold none).
+  /// The messages of `channels` in file order (skipping chunks whose index says they hold none;
+  /// from the chunks' Message Index records when the summary points to them, so that listing
+  /// does not decompress the chunks that reading will).
   [[nodiscard]] std::vector<MessageRef> messages(const std::set<std::uint16_t>& channels) const;
   /// One message's data (the chunk's CRC checked when it is decompressed).
   [[nodiscard]] std::vector<std::uint8_t> read(const MessageRef& ref) const;
@@ -96,6 +104,9 @@ class Reader {
   void scan_data_section();
   const std::vector<std::uint8_t>& chunk_records(std::size_t chunk) const;
   void walk_chunk(std::size_t chunk, const std::set<std::uint16_t>* channels, std::vector<MessageRef>* out);
+  /// Appends the messages of `channels` in chunk `chunk` from its Message Index records, in
+  /// record order; false (nothing appended) when a channel the chunk holds has no index.
+  bool list_from_indexes(std::size_t chunk, const std::set<std::uint16_t>& channels, std::vector<MessageRef>* out) const;
 
   std::shared_ptr<const ByteSource> source_;
   std::string name_;
