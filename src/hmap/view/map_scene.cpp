@@ -139,7 +139,12 @@ ColumnReport MapScene::column(double x, double y) const {
   return r;
 }
 
-std::string MapScene::summary_json() const {
+const std::string& MapScene::summary_json() const {
+  std::call_once(summary_->once, [this] { summary_->json = make_summary_json(); });
+  return summary_->json;
+}
+
+std::string MapScene::make_summary_json() const {
   nlohmann::json j;
   j["format"] = format_;
   j["cell_size"] = map_.cell_size();
