@@ -168,6 +168,25 @@ RecordHead read_head(const ByteSource& src, std::uint64_t at) {
   return {h[0], le64(h + 1)};
 }
 
+/// A Schema record's id, name and encoding (its data, the message definition, is not needed).
+void add_schema(Cursor& c, Info& info) {
+  Schema s;
+  s.id = c.get<std::uint16_t>();
+  s.name = c.string();
+  s.encoding = c.string();
+  info.schemas.emplace(s.id, s);
+}
+
+/// A Channel record's id, schema, topic and message encoding (its metadata is not needed).
+void add_channel(Cursor& c, Info& info) {
+  Channel ch;
+  ch.id = c.get<std::uint16_t>();
+  ch.schema_id = c.get<std::uint16_t>();
+  ch.topic = c.string();
+  ch.message_encoding = c.string();
+  info.channels.emplace(ch.id, ch);
+}
+
 /// The fixed part of a Chunk record up to its records, and where they start.
 ChunkInfo parse_chunk(const ByteSource& src, std::uint64_t at, std::uint64_t length, const std::string& name) {
   // Fields: start time, end time, uncompressed size, uncompressed crc, compression, records length.
@@ -352,18 +371,9 @@ void Reader::read_summary(std::uint64_t begin, std::uint64_t end) {
       const auto content = read_bytes(src, content_at, head.length);
       Cursor c(content, content_at, name_, "summary record");
       if (head.opcode == kSchema) {
-        Schema s;
-        s.id = c.get<std::uint16_t>();
-        s.name = c.string();
-        s.encoding = c.string();
-        info_.schemas.emplace(s.id, s);
+        add_schema(c, info_);
       } else if (head.opcode == kChannel) {
-        Channel ch;
-        ch.id = c.get<std::uint16_t>();
-        ch.schema_id = c.get<std::uint16_t>();
-        ch.topic = c.string();
-        ch.message_encoding = c.string();
-        info_.channels.emplace(ch.id, ch);
+        add_channel(c, info_);
       } else if (head.opcode == kStatistics) {
         statistics = true;
         info_.messages = c.get<std::uint64_t>();
@@ -449,18 +459,9 @@ void Reader::scan_data_section() {
       const auto content = read_bytes(src, content_at, head.length);
       Cursor c(content, content_at, name_, "record");
       if (head.opcode == kSchema) {
-        Schema s;
-        s.id = c.get<std::uint16_t>();
-        s.name = c.string();
-        s.encoding = c.string();
-        info_.schemas.emplace(s.id, s);
+        add_schema(c, info_);
       } else if (head.opcode == kChannel) {
-        Channel ch;
-        ch.id = c.get<std::uint16_t>();
-        ch.schema_id = c.get<std::uint16_t>();
-        ch.topic = c.string();
-        ch.message_encoding = c.string();
-        info_.channels.emplace(ch.id, ch);
+        add_channel(c, info_);
       } else {
         MessageRef ref;
         ref.channel = c.get<std::uint16_t>();
@@ -514,18 +515,9 @@ void Reader::walk_chunk(std::size_t chunk, const std::set<std::uint16_t>* channe
     const std::size_t content_at = at + kRecordPrefix;
     Cursor c(std::span<const std::uint8_t>(records).subspan(content_at, static_cast<std::size_t>(length)), content_at, name_, "record in chunk");
     if (opcode == kSchema) {
-      Schema s;
-      s.id = c.get<std::uint16_t>();
-      s.name = c.string();
-      s.encoding = c.string();
-      info_.schemas.emplace(s.id, s);
+      add_schema(c, info_);
     } else if (opcode == kChannel) {
-      Channel ch;
-      ch.id = c.get<std::uint16_t>();
-      ch.schema_id = c.get<std::uint16_t>();
-      ch.topic = c.string();
-      ch.message_encoding = c.string();
-      info_.channels.emplace(ch.id, ch);
+      add_channel(c, info_);
     } else if (opcode == kMessage) {
       if (length < kMessageFixed) throw InputError(name_, where, "message record shorter than its fixed fields");
       MessageRef ref;
