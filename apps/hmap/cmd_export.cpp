@@ -289,8 +289,8 @@ void add_export_command(CLI::App& app) {
                   "[m] with --costmap: lethal cells raise the cost within this radius (99 exp(-3 d))")
       ->capture_default_str();
   cmd->add_option("--mcap", opts->mcap,
-                  "Output MCAP recording for Foxglove (OUT.mcap): /map nav_msgs/OccupancyGrid (the --pgm grid), /tf, "
-                  "/hvoxels foxglove.SceneUpdate cubes coloured by height, /points foxglove.PointCloud");
+                  "Output MCAP recording for Foxglove (OUT.mcap): /map nav_msgs/OccupancyGrid (the --pgm grid), /grid "
+                  "foxglove.Grid, /tf, /hvoxels foxglove.SceneUpdate cubes coloured by height, /points foxglove.PointCloud");
   cmd->add_option("--bt", opts->bt, "Output OctoMap binary tree (.bt), for octovis and the octomap tools");
   cmd->add_flag("--points", opts->points, "Write the height-upsampled point cloud instead of boxes");
   cmd->add_option("--z-step", opts->z_step, "Vertical spacing of recovered points [m] (default: the cell size)");

@@ -416,7 +416,7 @@ TEST_F(CliTest, ExportsAnMcapForFoxgloveAndRefusesBadInput) {
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_EQ(lines(r.out), 1U) << r.out;
   // Two HVoxels in two tiles of 64 cells (cell -7 lies in tile -1): two SceneUpdates.
-  EXPECT_NE(r.out.find("/hvoxels 2, /map 1, /points 1, /tf 1"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("/grid 1, /hvoxels 2, /map 1, /points 1, /tf 1"), std::string::npos) << r.out;
   std::ifstream in(path("m.mcap"), std::ios::binary);
   const std::string bytes((std::istreambuf_iterator<char>(in)), {});
   ASSERT_GT(bytes.size(), 16U);

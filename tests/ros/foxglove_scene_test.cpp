@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -50,6 +51,23 @@ struct Read {
   std::map<std::string, std::string> schema_of;
 };
 
+std::vector<std::uint8_t> from_base64(const std::string& text) {
+  std::vector<std::uint8_t> out;
+  std::uint32_t acc = 0;
+  int bits = 0;
+  for (const char ch : text) {
+    const char* at = std::strchr("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/", ch);
+    if (ch == '=' || at == nullptr) break;
+    acc = (acc << 6) | static_cast<std::uint32_t>(at - "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/");
+    bits += 6;
+    if (bits >= 8) {
+      bits -= 8;
+      out.push_back(static_cast<std::uint8_t>(acc >> bits));
+    }
+  }
+  return out;
+}
+
 Read read_all(const std::vector<std::uint8_t>& file) {
   const mcap::Reader reader(mcap::memory_source(file), "scene.mcap");
   EXPECT_TRUE(reader.info().indexed);
@@ -83,6 +101,7 @@ TEST(FoxgloveSceneTest, EveryTopicReadsBackAsWritten) {
   EXPECT_EQ(stats.bytes, file.size());
   const Read r = read_all(file);
   EXPECT_EQ(r.schema_of.at("/map"), "nav_msgs/msg/OccupancyGrid");
+  EXPECT_EQ(r.schema_of.at("/grid"), "foxglove.Grid");
   EXPECT_EQ(r.schema_of.at("/tf"), "tf2_msgs/msg/TFMessage");
   EXPECT_EQ(r.schema_of.at("/hvoxels"), "foxglove.SceneUpdate");
   EXPECT_EQ(r.schema_of.at("/points"), "foxglove.PointCloud");
@@ -112,6 +131,26 @@ TEST(FoxgloveSceneTest, EveryTopicReadsBackAsWritten) {
   const auto data = c.bytes(n);
   EXPECT_EQ(std::vector<std::uint8_t>(data.begin(), data.end()), image.cells);
   EXPECT_NE(std::count(image.cells.begin(), image.cells.end(), view::kUnknownCell), 0);
+
+  // /grid: the same cells as float32 probabilities, NaN where unknown.
+  {
+    const auto& g = r.by_topic.at("/grid")[0];
+    const auto gj = nlohmann::json::parse(g.begin(), g.end());
+    EXPECT_EQ(gj["column_count"].get<int>(), image.width);
+    EXPECT_EQ(gj["row_stride"].get<int>(), 4 * image.width);
+    EXPECT_DOUBLE_EQ(gj["pose"]["position"]["x"].get<double>(), image.origin.x());
+    const auto floats = from_base64(gj["data"].get<std::string>());
+    ASSERT_EQ(floats.size(), 4 * image.cells.size());
+    for (std::size_t k = 0; k < image.cells.size(); ++k) {
+      float v = 0.0F;
+      std::memcpy(&v, floats.data() + 4 * k, 4);
+      if (image.cells[k] == view::kUnknownCell) {
+        EXPECT_TRUE(std::isnan(v)) << k;
+      } else {
+        EXPECT_FLOAT_EQ(v, static_cast<float>(image.cells[k]) / 100.0F) << k;
+      }
+    }
+  }
 
   // /tf: world -> map.
   std::vector<access::RawTransform> tf;
@@ -145,8 +184,7 @@ TEST(FoxgloveSceneTest, EveryTopicReadsBackAsWritten) {
   // /points: the recovered points, 12 bytes each, base64.
   const auto& pts = r.by_topic.at("/points")[0];
   const auto pj = nlohmann::json::parse(pts.begin(), pts.end());
-  const std::string b64 = pj["data"];
-  EXPECT_EQ(b64.size(), (recover_points(m.map, 0.5).size() * 12 + 2) / 3 * 4);
+  EXPECT_EQ(from_base64(pj["data"].get<std::string>()).size(), recover_points(m.map, 0.5).size() * 12);
   EXPECT_EQ(stats.points, recover_points(m.map, 0.5).size());
 }
 
@@ -200,6 +238,7 @@ TEST(FoxgloveSceneTest, McapCoreReadsAndDecodesEveryMessage) {
   EXPECT_EQ(j["grid"]["width"].get<int>(), image.width);
   EXPECT_EQ(j["grid"]["height"].get<int>(), image.height);
   EXPECT_EQ(j["grid"]["unknown"].get<long>(), std::count(image.cells.begin(), image.cells.end(), view::kUnknownCell));
+  EXPECT_EQ(j["foxglove_grid_cells"].get<std::size_t>(), image.cells.size());
   EXPECT_EQ(j["tf"][0], "world->map");
   EXPECT_EQ(j["streamed_messages"].get<std::uint64_t>(), j["messages"].get<std::uint64_t>());
   EXPECT_EQ(j["statistics_messages"].get<std::uint64_t>(), j["messages"].get<std::uint64_t>());

@@ -48,7 +48,7 @@ async function main() {
       throw new Error(`${channel.topic}: message encoding ${channel.messageEncoding} not handled`);
     }
   }
-  const out = { topics, messages: 0, cubes: 0, entities: 0, points: 0, grid: null, tf: [] };
+  const out = { topics, messages: 0, cubes: 0, entities: 0, points: 0, foxglove_grid_cells: 0, grid: null, tf: [] };
   for await (const message of reader.readMessages({ validateCrcs: true })) {
     const channel = reader.channelsById.get(message.channelId);
     const msg = decoders.get(message.channelId).readMessage(message.data);
@@ -64,6 +64,10 @@ async function main() {
       const bytes = Buffer.from(msg.data, "base64").length;
       if (bytes % msg.point_stride !== 0) throw new Error("point cloud data is not a whole number of points");
       out.points += bytes / msg.point_stride;
+    } else if (type === "foxglove.Grid") {
+      const bytes = Buffer.from(msg.data, "base64").length;
+      if (bytes % msg.row_stride !== 0 || msg.row_stride !== msg.column_count * msg.cell_stride) throw new Error("grid data is not whole rows");
+      out.foxglove_grid_cells += bytes / msg.cell_stride;
     } else if (type === "nav_msgs/msg/OccupancyGrid") {
       if (msg.data.length !== msg.info.width * msg.info.height) throw new Error("grid data size is not width x height");
       out.grid = { width: msg.info.width, height: msg.info.height, resolution: msg.info.resolution, frame_id: msg.header.frame_id,

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <charconv>
+#include <limits>
 #include <cstring>
 #include <tuple>
 #include <vector>
@@ -72,6 +73,12 @@ std::string point_cloud_schema() {
   return std::string(R"({"title":"foxglove.PointCloud","type":"object","properties":{"timestamp":)") + kJsonTime +
          R"(,"frame_id":{"type":"string"},"pose":)" + json_pose() +
          R"(,"point_stride":{"type":"integer","minimum":0},"fields":{"type":"array","items":{"type":"object","properties":{"name":{"type":"string"},"offset":{"type":"integer","minimum":0},"type":{"type":"integer"}}}},"data":{"type":"string","contentEncoding":"base64"}}})";
+}
+
+std::string grid_schema() {
+  return std::string(R"({"title":"foxglove.Grid","type":"object","properties":{"timestamp":)") + kJsonTime +
+         R"(,"frame_id":{"type":"string"},"pose":)" + json_pose() +
+         R"(,"column_count":{"type":"integer","minimum":0},"cell_size":{"type":"object","properties":{"x":{"type":"number"},"y":{"type":"number"}}},"row_stride":{"type":"integer","minimum":0},"cell_stride":{"type":"integer","minimum":0},"fields":{"type":"array","items":{"type":"object","properties":{"name":{"type":"string"},"offset":{"type":"integer","minimum":0},"type":{"type":"integer"}}}},"data":{"type":"string","contentEncoding":"base64"}}})";
 }
 
 // --- CDR (XCDR1, little endian), as cdr.hpp reads it ----------------------------------------
@@ -167,6 +174,30 @@ std::string base64(std::span<const std::uint8_t> in) {
   return out;
 }
 
+/// foxglove.Grid of the grid image: one float32 field "occupancy", the probability 0..1, NaN
+/// where unknown (a value no probability takes, unlike OccupancyGrid's -1 which a float colour
+/// map would place below free); row-major from the lower-left corner.
+std::string grid_message(const view::GridImage& image, const FoxgloveSceneParams& p) {
+  std::vector<std::uint8_t> data(image.cells.size() * 4);
+  for (std::size_t k = 0; k < image.cells.size(); ++k) {
+    const float v = image.cells[k] == view::kUnknownCell ? std::numeric_limits<float>::quiet_NaN()
+                                                           : static_cast<float>(image.cells[k]) / 100.0F;
+    std::memcpy(data.data() + 4 * k, &v, 4);  // little-endian float32, NumericType FLOAT32 = 7
+  }
+  std::string msg = R"({"timestamp":)" + json_stamp(p.stamp_ns) + R"(,"frame_id":")" + p.frame + R"(","pose":{"position":{"x":)";
+  number(msg, image.origin.x());
+  msg += ",\"y\":";
+  number(msg, image.origin.y());
+  msg += R"(,"z":0},"orientation":{"x":0,"y":0,"z":0,"w":1}},"column_count":)" + std::to_string(image.width) +
+         R"(,"cell_size":{"x":)";
+  number(msg, image.resolution);
+  msg += ",\"y\":";
+  number(msg, image.resolution);
+  msg += R"(},"row_stride":)" + std::to_string(4 * image.width) +
+         R"(,"cell_stride":4,"fields":[{"name":"occupancy","offset":0,"type":7}],"data":")" + base64(data) + "\"}";
+  return msg;
+}
+
 /// One HVoxel to draw, with its cell.
 struct Cube {
   CellKey cell;
@@ -196,8 +227,13 @@ FoxgloveSceneStats write_foxglove_mcap(const HMap& map, const OccupancyGrid* gri
   if (grid != nullptr && grid->known_cells() > 0) {
     const auto schema = writer.add_schema("nav_msgs/msg/OccupancyGrid", "ros2msg", occupancy_grid_definition());
     const auto channel = writer.add_channel(schema, kMapTopic, "cdr");
-    writer.write(channel, p.stamp_ns, occupancy_grid_message(view::grid_image(*grid), p));
+    const view::GridImage image = view::grid_image(*grid);
+    writer.write(channel, p.stamp_ns, occupancy_grid_message(image, p));
     count(kMapTopic);
+    const auto grid_schema_id = writer.add_schema("foxglove.Grid", "jsonschema", grid_schema());
+    const auto grid_channel = writer.add_channel(grid_schema_id, kGridTopic, "json");
+    writer.write(grid_channel, p.stamp_ns, grid_message(image, p));
+    count(kGridTopic);
   }
 
   // /hvoxels: the columns by tile, in (tile, cell) order so that the same map gives the same file.

@@ -2,6 +2,8 @@
 // A map as an MCAP recording that Foxglove opens with no configuration (hmap export --mcap):
 //   /map      nav_msgs/msg/OccupancyGrid (ros2msg schema, CDR): the 2D grid, 0..100 percent
 //             occupied, -1 unknown, cell (col, row) at row·width + col with x along col
+//   /grid     foxglove.Grid (jsonschema, JSON, data base64): the same grid, one float32 field
+//             "occupancy" 0..1, NaN unknown
 //   /tf       tf2_msgs/msg/TFMessage (ros2msg, CDR): world -> map, identity, so that the map frame
 //             is in the transform tree Foxglove's 3D panel picks its display frame from
 //   /hvoxels  foxglove.SceneUpdate (jsonschema, JSON): the HVoxels as cubes coloured by height
@@ -25,6 +27,7 @@ namespace hmap::ros {
 
 inline constexpr const char* kMapTopic = "/map";
 inline constexpr const char* kTfTopic = "/tf";
+inline constexpr const char* kGridTopic = "/grid";
 inline constexpr const char* kHVoxelTopic = "/hvoxels";
 inline constexpr const char* kPointsTopic = "/points";
 
@@ -44,7 +47,7 @@ struct FoxgloveSceneStats {
   std::uint64_t bytes = 0;  ///< the whole file
 };
 
-/// Writes `map` and its 2D `grid` (may be null: no /map) to `sink` as one MCAP file.
+/// Writes `map` and its 2D `grid` (may be null: no /map nor /grid) to `sink` as one MCAP file.
 /// Throws hmap::Error for parameters out of range.
 FoxgloveSceneStats write_foxglove_mcap(const HMap& map, const OccupancyGrid* grid, const mcap::Sink& sink,
                                        const FoxgloveSceneParams& params = {});
