@@ -9,6 +9,7 @@
 #include "hmap/io/atomic_file.hpp"
 #include "hmap/core/error.hpp"
 #include "hmap/io/hmap_file.hpp"
+#include "hmap/io/poses.hpp"
 #include "hmap/ground/ground_patches.hpp"
 #include "hmap/io/geotiff.hpp"
 #include "hmap/io/pgm_export.hpp"
@@ -29,6 +30,7 @@ struct ExportOptions {
   std::string costmap;
   std::string geotiff;
   std::string mcap;
+  std::string trajectory;
   TraversabilityParams traversability;
   std::vector<double> ground_hint;
   int ground_iterations = 0;
@@ -167,11 +169,11 @@ void export_traversability(const GridChoice& choice, const ExportOptions& o, con
 
 /// --mcap: the map as a recording Foxglove opens as it is (hmap/ros/foxglove_scene.hpp), written
 /// atomically; /map is the grid --pgm writes.
-void export_mcap(const HMap& map, const OccupancyGrid& grid, const ExportOptions& o) {
+void export_mcap(const HMap& map, const OccupancyGrid& grid, const PoseList& trajectory, const ExportOptions& o) {
   const auto t0 = Clock::now();
   ros::FoxgloveSceneStats stats;
   write_file_atomic(o.mcap, [&](std::ostream& out) {
-    stats = ros::write_foxglove_mcap(map, &grid, [&](std::span<const std::uint8_t> b) {
+    stats = ros::write_foxglove_mcap(map, &grid, trajectory, [&](std::span<const std::uint8_t> b) {
       out.write(reinterpret_cast<const char*>(b.data()), static_cast<std::streamsize>(b.size()));
     });
   });
@@ -209,6 +211,8 @@ void run_export(const ExportOptions& o) {
   }
   if (!o.geotiff.empty()) check_output_file(o.geotiff);
   if (!o.mcap.empty()) check_output_file(o.mcap);
+  if (!o.trajectory.empty() && o.mcap.empty()) throw Error("--trajectory goes with --mcap (the poses as /trajectory)");
+  const PoseList trajectory = o.trajectory.empty() ? PoseList{} : read_poses(o.trajectory);
   MapFile file = load_map_file(o.map);
   const HMap& map = file.map;
   if (!o.mcap.empty() && (!file.grid || file.grid->known_cells() == 0)) {
@@ -219,7 +223,7 @@ void run_export(const ExportOptions& o) {
   const bool bt_free = !o.bt.empty() && file.grid && file.grid->known_cells() > 0 && !file.ground.empty();
   std::optional<GridChoice> chosen;
   if (!o.pgm.empty() || !o.costmap.empty() || !o.geotiff.empty() || !o.mcap.empty() || bt_free) chosen = choose_grid(file, o);
-  if (!o.mcap.empty()) export_mcap(map, chosen->grid, o);
+  if (!o.mcap.empty()) export_mcap(map, chosen->grid, trajectory, o);
   if (!o.pgm.empty() || !o.costmap.empty() || !o.geotiff.empty()) {
     const GridChoice& choice = *chosen;
     // Free from one clear ground pass on (p <= K_g), occupied above 0.65: the PGM, its counts and
@@ -291,6 +295,9 @@ void add_export_command(CLI::App& app) {
   cmd->add_option("--mcap", opts->mcap,
                   "Output MCAP recording for Foxglove (OUT.mcap): /map nav_msgs/OccupancyGrid (the --pgm grid), /grid "
                   "foxglove.Grid, /tf, /hvoxels foxglove.SceneUpdate cubes coloured by height, /points foxglove.PointCloud");
+  cmd->add_option("--trajectory", opts->trajectory,
+                  "With --mcap: poses file (KITTI or TUM, in the map frame, as render draws them) written as /trajectory "
+                  "foxglove.PosesInFrame");
   cmd->add_option("--bt", opts->bt, "Output OctoMap binary tree (.bt), for octovis and the octomap tools");
   cmd->add_flag("--points", opts->points, "Write the height-upsampled point cloud instead of boxes");
   cmd->add_option("--z-step", opts->z_step, "Vertical spacing of recovered points [m] (default: the cell size)");

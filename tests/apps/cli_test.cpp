@@ -412,11 +412,12 @@ TEST_F(CliTest, ExportsAnMcapForFoxgloveAndRefusesBadInput) {
   save_hmap(path("m.hmap"), map, {}, &grid);
   save_hmap(path("no_grid.hmap"), map);
 
-  const CmdResult r = run("export " + path("m.hmap") + " --mcap " + path("m.mcap"));
+  std::ofstream(path("poses.txt")) << "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 1 0 1 0 0 0 0 1 0\n";
+  const CmdResult r = run("export " + path("m.hmap") + " --mcap " + path("m.mcap") + " --trajectory " + path("poses.txt"));
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_EQ(lines(r.out), 1U) << r.out;
   // Two HVoxels in two tiles of 64 cells (cell -7 lies in tile -1): two SceneUpdates.
-  EXPECT_NE(r.out.find("/grid 1, /hvoxels 2, /map 1, /points 1, /tf 1"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("/grid 1, /hvoxels 2, /map 1, /points 1, /tf 1, /trajectory 1"), std::string::npos) << r.out;
   std::ifstream in(path("m.mcap"), std::ios::binary);
   const std::string bytes((std::istreambuf_iterator<char>(in)), {});
   ASSERT_GT(bytes.size(), 16U);
@@ -426,7 +427,9 @@ TEST_F(CliTest, ExportsAnMcapForFoxgloveAndRefusesBadInput) {
   for (const auto& [args, says] : std::vector<std::pair<std::string, std::string>>{
            {path("m.hmap") + " --mcap " + path("m.bag"), "ending in .mcap"},
            {path("m.hmap") + " --mcap " + path("no/such/folder/m.mcap"), "does not exist"},
-           {path("no_grid.hmap") + " --mcap " + path("n.mcap"), "no 2D grid"}}) {
+           {path("no_grid.hmap") + " --mcap " + path("n.mcap"), "no 2D grid"},
+           {path("m.hmap") + " --mcap " + path("n.mcap") + " --trajectory " + path("none.txt"), "none.txt"},
+           {path("m.hmap") + " --ply " + path("n.ply") + " --trajectory " + path("poses.txt"), "goes with --mcap"}}) {
     const CmdResult bad = run("export " + args);
     EXPECT_EQ(bad.code, 2) << bad.out;
     EXPECT_EQ(lines(bad.out), 1U) << bad.out;
@@ -434,6 +437,7 @@ TEST_F(CliTest, ExportsAnMcapForFoxgloveAndRefusesBadInput) {
   }
   EXPECT_FALSE(std::filesystem::exists(path("m.bag")));
   EXPECT_FALSE(std::filesystem::exists(path("n.mcap")));
+  EXPECT_FALSE(std::filesystem::exists(path("n.ply")));
 }
 
 }  // namespace

@@ -84,9 +84,9 @@ Read read_all(const std::vector<std::uint8_t>& file) {
 }
 
 std::vector<std::uint8_t> write(const HMap& map, const OccupancyGrid* grid, FoxgloveSceneStats* stats,
-                                FoxgloveSceneParams params = {}) {
+                                FoxgloveSceneParams params = {}, const PoseList& trajectory = {}) {
   std::vector<std::uint8_t> file;
-  *stats = write_foxglove_mcap(map, grid, [&](std::span<const std::uint8_t> b) { file.insert(file.end(), b.begin(), b.end()); },
+  *stats = write_foxglove_mcap(map, grid, trajectory, [&](std::span<const std::uint8_t> b) { file.insert(file.end(), b.begin(), b.end()); },
                                params);
   return file;
 }
@@ -188,6 +188,36 @@ TEST(FoxgloveSceneTest, EveryTopicReadsBackAsWritten) {
   EXPECT_EQ(stats.points, recover_points(m.map, 0.5).size());
 }
 
+/// Three poses: along x, then turned 90 degrees about z, then lifted.
+PoseList three_poses() {
+  PoseList poses(3, Pose::Identity());
+  poses[1].translation() = Eigen::Vector3d(1.5, 0.0, 0.0);
+  poses[1].linear() = Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  poses[2].translation() = Eigen::Vector3d(1.5, -2.25, 0.125);
+  return poses;
+}
+
+TEST(FoxgloveSceneTest, TheTrajectoryIsOnePosesInFrame) {
+  const SmallMap m;
+  const PoseList poses = three_poses();
+  FoxgloveSceneStats stats;
+  const Read r = read_all(write(m.map, &m.grid, &stats, {}, poses));
+  EXPECT_EQ(r.schema_of.at("/trajectory"), "foxglove.PosesInFrame");
+  ASSERT_EQ(r.by_topic.at("/trajectory").size(), 1U);
+  const auto& bytes = r.by_topic.at("/trajectory")[0];
+  const auto j = nlohmann::json::parse(bytes.begin(), bytes.end());
+  EXPECT_EQ(j["frame_id"], "map");
+  ASSERT_EQ(j["poses"].size(), 3U);
+  for (std::size_t k = 0; k < 3; ++k) {
+    const auto& p = j["poses"][k];
+    const Eigen::Vector3d t(p["position"]["x"], p["position"]["y"], p["position"]["z"]);
+    const Eigen::Quaterniond q(p["orientation"]["w"].get<double>(), p["orientation"]["x"].get<double>(),
+                               p["orientation"]["y"].get<double>(), p["orientation"]["z"].get<double>());
+    EXPECT_LT((t - poses[k].translation()).norm(), 1e-5) << k;
+    EXPECT_LT(q.angularDistance(Eigen::Quaterniond(poses[k].rotation())), 1e-5) << k;
+  }
+}
+
 TEST(FoxgloveSceneTest, TheEmptyMapIsAFileWithItsFrameOnly) {
   const HMap map(small_params());
   FoxgloveSceneStats stats;
@@ -222,7 +252,7 @@ TEST(FoxgloveSceneTest, McapCoreReadsAndDecodesEveryMessage) {
   params.tile_cells = 8;
   params.mcap.chunk_bytes = 4096;
   FoxgloveSceneStats stats;
-  const auto file = write(m.map, &m.grid, &stats, params);
+  const auto file = write(m.map, &m.grid, &stats, params, three_poses());
   const fs::path dir = test::temp_dir("foxglove_scene");
   const fs::path path = dir / "scene.mcap";
   std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char*>(file.data()), static_cast<std::streamsize>(file.size()));
@@ -239,6 +269,7 @@ TEST(FoxgloveSceneTest, McapCoreReadsAndDecodesEveryMessage) {
   EXPECT_EQ(j["grid"]["height"].get<int>(), image.height);
   EXPECT_EQ(j["grid"]["unknown"].get<long>(), std::count(image.cells.begin(), image.cells.end(), view::kUnknownCell));
   EXPECT_EQ(j["foxglove_grid_cells"].get<std::size_t>(), image.cells.size());
+  EXPECT_EQ(j["poses"].get<int>(), 3);
   EXPECT_EQ(j["tf"][0], "world->map");
   EXPECT_EQ(j["streamed_messages"].get<std::uint64_t>(), j["messages"].get<std::uint64_t>());
   EXPECT_EQ(j["statistics_messages"].get<std::uint64_t>(), j["messages"].get<std::uint64_t>());

@@ -48,7 +48,7 @@ async function main() {
       throw new Error(`${channel.topic}: message encoding ${channel.messageEncoding} not handled`);
     }
   }
-  const out = { topics, messages: 0, cubes: 0, entities: 0, points: 0, foxglove_grid_cells: 0, grid: null, tf: [] };
+  const out = { topics, messages: 0, cubes: 0, entities: 0, points: 0, poses: 0, foxglove_grid_cells: 0, grid: null, tf: [] };
   for await (const message of reader.readMessages({ validateCrcs: true })) {
     const channel = reader.channelsById.get(message.channelId);
     const msg = decoders.get(message.channelId).readMessage(message.data);
@@ -64,6 +64,8 @@ async function main() {
       const bytes = Buffer.from(msg.data, "base64").length;
       if (bytes % msg.point_stride !== 0) throw new Error("point cloud data is not a whole number of points");
       out.points += bytes / msg.point_stride;
+    } else if (type === "foxglove.PosesInFrame") {
+      out.poses += msg.poses.length;
     } else if (type === "foxglove.Grid") {
       const bytes = Buffer.from(msg.data, "base64").length;
       if (bytes % msg.row_stride !== 0 || msg.row_stride !== msg.column_count * msg.cell_stride) throw new Error("grid data is not whole rows");

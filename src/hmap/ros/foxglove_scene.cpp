@@ -75,6 +75,11 @@ std::string point_cloud_schema() {
          R"(,"point_stride":{"type":"integer","minimum":0},"fields":{"type":"array","items":{"type":"object","properties":{"name":{"type":"string"},"offset":{"type":"integer","minimum":0},"type":{"type":"integer"}}}},"data":{"type":"string","contentEncoding":"base64"}}})";
 }
 
+std::string poses_in_frame_schema() {
+  return std::string(R"({"title":"foxglove.PosesInFrame","type":"object","properties":{"timestamp":)") + kJsonTime +
+         R"(,"frame_id":{"type":"string"},"poses":{"type":"array","items":)" + json_pose() + "}}}";
+}
+
 std::string grid_schema() {
   return std::string(R"({"title":"foxglove.Grid","type":"object","properties":{"timestamp":)") + kJsonTime +
          R"(,"frame_id":{"type":"string"},"pose":)" + json_pose() +
@@ -142,10 +147,10 @@ std::vector<std::uint8_t> tf_message(const FoxgloveSceneParams& p) {
 
 // --- JSON text -------------------------------------------------------------------------------
 
-/// Appends `v` with 4 decimals (0.1 mm, 1e-4 of a colour channel).
-void number(std::string& out, double v) {
-  char buf[32];
-  const auto r = std::to_chars(buf, buf + sizeof(buf), v, std::chars_format::fixed, 4);
+/// Appends `v` with 4 decimals by default (0.1 mm, 1e-4 of a colour channel).
+void number(std::string& out, double v, int decimals = 4) {
+  char buf[400];  // a double's whole digits (309 at most) and the decimals
+  const auto r = std::to_chars(buf, buf + sizeof(buf), v, std::chars_format::fixed, decimals);
   out.append(buf, r.ptr);
 }
 
@@ -208,8 +213,8 @@ std::int32_t floor_div(std::int32_t a, std::int32_t b) { return a >= 0 ? a / b :
 
 }  // namespace
 
-FoxgloveSceneStats write_foxglove_mcap(const HMap& map, const OccupancyGrid* grid, const mcap::Sink& sink,
-                                       const FoxgloveSceneParams& p) {
+FoxgloveSceneStats write_foxglove_mcap(const HMap& map, const OccupancyGrid* grid, std::span<const Pose> T_map_scans,
+                                       const mcap::Sink& sink, const FoxgloveSceneParams& p) {
   if (p.tile_cells < 1 || p.tile_cells > 4096) throw Error("foxglove scene: tile_cells must be in 1..4096");
   if (p.frame.empty() || p.parent_frame.empty() || p.frame == p.parent_frame) {
     throw Error("foxglove scene: the frame and its parent must be two non-empty names");
@@ -314,6 +319,28 @@ FoxgloveSceneStats write_foxglove_mcap(const HMap& map, const OccupancyGrid* gri
     writer.write(channel, p.stamp_ns, msg);
     count(kPointsTopic);
     stats.points = points.size();
+  }
+
+  if (!T_map_scans.empty()) {
+    const auto schema = writer.add_schema("foxglove.PosesInFrame", "jsonschema", poses_in_frame_schema());
+    const auto channel = writer.add_channel(schema, kTrajectoryTopic, "json");
+    std::string msg = R"({"timestamp":)" + json_stamp(p.stamp_ns) + R"(,"frame_id":")" + p.frame + R"(","poses":[)";
+    for (std::size_t k = 0; k < T_map_scans.size(); ++k) {
+      const Eigen::Vector3d position = T_map_scans[k].translation();
+      const Eigen::Quaterniond q(T_map_scans[k].rotation());
+      msg += k == 0 ? "" : ",";
+      msg += R"({"position":{"x":)";
+      const double values[7] = {position.x(), position.y(), position.z(), q.x(), q.y(), q.z(), q.w()};
+      const char* names[7] = {nullptr, ",\"y\":", ",\"z\":", R"(},"orientation":{"x":)", ",\"y\":", ",\"z\":", ",\"w\":"};
+      for (int v = 0; v < 7; ++v) {
+        if (names[v] != nullptr) msg += names[v];
+        number(msg, values[v], 6);  // 1 µm, 1e-6 of a unit quaternion
+      }
+      msg += "}}";
+    }
+    msg += "]}";
+    writer.write(channel, p.stamp_ns, msg);
+    count(kTrajectoryTopic);
   }
 
   stats.bytes = writer.finish().bytes;

@@ -10,6 +10,7 @@
 //             (view::height_colour), one entity per square tile of cells, one message per entity
 //   /points   foxglove.PointCloud (jsonschema, JSON, data base64): the points recovered from the
 //             HVoxels every z_step up each one (recover_points), float32 x y z
+//   /trajectory  foxglove.PosesInFrame (jsonschema, JSON): the poses given, when any, in order
 // The foxglove.* messages are JSON with JSON schemas, Foxglove's own encoding for its schemas:
 // no message definitions to carry and a file anyone can read with a JSON parser; the cubes
 // compress well in zstd chunks. The ROS types are CDR so that ROS 2 tools read them too.
@@ -17,6 +18,7 @@
 
 #include <cstdint>
 #include <map>
+#include <span>
 #include <string>
 
 #include "hmap/maps/hmap.hpp"
@@ -30,6 +32,7 @@ inline constexpr const char* kTfTopic = "/tf";
 inline constexpr const char* kGridTopic = "/grid";
 inline constexpr const char* kHVoxelTopic = "/hvoxels";
 inline constexpr const char* kPointsTopic = "/points";
+inline constexpr const char* kTrajectoryTopic = "/trajectory";
 
 struct FoxgloveSceneParams {
   std::string frame = "map";         ///< frame of every message
@@ -47,10 +50,11 @@ struct FoxgloveSceneStats {
   std::uint64_t bytes = 0;  ///< the whole file
 };
 
-/// Writes `map` and its 2D `grid` (may be null: no /map nor /grid) to `sink` as one MCAP file.
-/// Throws hmap::Error for parameters out of range.
-FoxgloveSceneStats write_foxglove_mcap(const HMap& map, const OccupancyGrid* grid, const mcap::Sink& sink,
-                                       const FoxgloveSceneParams& params = {});
+/// Writes `map`, its 2D `grid` (may be null: no /map nor /grid) and the poses `T_map_scans` (may
+/// be empty: no /trajectory) to `sink` as one MCAP file. Throws hmap::Error for parameters out of
+/// range.
+FoxgloveSceneStats write_foxglove_mcap(const HMap& map, const OccupancyGrid* grid, std::span<const Pose> T_map_scans,
+                                       const mcap::Sink& sink, const FoxgloveSceneParams& params = {});
 
 
 }  // namespace hmap::ros
