@@ -218,6 +218,20 @@ TEST(FoxgloveSceneTest, TheTrajectoryIsOnePosesInFrame) {
   }
 }
 
+TEST(FoxgloveSceneTest, TheSameMapGivesTheSameBytes) {
+  const SmallMap a;
+  // The same columns inserted in the reverse order of a's walk.
+  std::vector<std::pair<CellKey, std::vector<HVoxel>>> columns;
+  a.map.for_each_column([&](const CellKey& key, const ColumnView& c) { columns.emplace_back(key, std::vector<HVoxel>(c.begin(), c.end())); });
+  HMap b(small_params());
+  for (auto it = columns.rbegin(); it != columns.rend(); ++it) {
+    auto c = b.column_for_update(it->first);
+    for (const HVoxel& v : it->second) c.push_back(v);
+  }
+  FoxgloveSceneStats stats;
+  EXPECT_EQ(write(a.map, &a.grid, &stats), write(b, &a.grid, &stats));
+}
+
 TEST(FoxgloveSceneTest, TheEmptyMapIsAFileWithItsFrameOnly) {
   const HMap map(small_params());
   FoxgloveSceneStats stats;

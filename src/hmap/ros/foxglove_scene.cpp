@@ -304,7 +304,11 @@ FoxgloveSceneStats write_foxglove_mcap(const HMap& map, const OccupancyGrid* gri
 
   // /points: one message, since Foxglove draws a point cloud topic's latest message only.
   if (p.points_z_step >= 0.0 && !cubes.empty()) {
-    const PointCloud points = recover_points(map, p.points_z_step > 0.0 ? p.points_z_step : map.cell_size());
+    PointCloud points = recover_points(map, p.points_z_step > 0.0 ? p.points_z_step : map.cell_size());
+    // In (x, y, z) order: recover_points walks the tile index, whose order depends on how the map was built.
+    std::sort(points.begin(), points.end(), [](const Point3f& a, const Point3f& b) {
+      return std::tuple(a.x(), a.y(), a.z()) < std::tuple(b.x(), b.y(), b.z());
+    });
     std::vector<std::uint8_t> data(points.size() * 12);
     for (std::size_t k = 0; k < points.size(); ++k) {
       const float xyz[3] = {points[k].x(), points[k].y(), points[k].z()};
