@@ -9,12 +9,14 @@
 #include "hmap/io/atomic_file.hpp"
 #include "hmap/core/error.hpp"
 #include "hmap/io/hmap_file.hpp"
+#include "hmap/io/poses.hpp"
 #include "hmap/ground/ground_patches.hpp"
 #include "hmap/io/geotiff.hpp"
 #include "hmap/io/pgm_export.hpp"
 #include "hmap/io/ply_export.hpp"
 #include "hmap/occupancy/occupancy_update.hpp"
 #include "hmap/io/octomap_export.hpp"
+#include "hmap/ros/foxglove_scene.hpp"
 
 namespace hmap::cli {
 
@@ -27,6 +29,8 @@ struct ExportOptions {
   std::string pgm;
   std::string costmap;
   std::string geotiff;
+  std::string mcap;
+  std::string trajectory;
   TraversabilityParams traversability;
   std::vector<double> ground_hint;
   int ground_iterations = 0;
@@ -163,9 +167,27 @@ void export_traversability(const GridChoice& choice, const ExportOptions& o, con
   }
 }
 
+/// --mcap: the map as a recording Foxglove opens as it is (hmap/ros/foxglove_scene.hpp), written
+/// atomically; /map is the grid --pgm writes.
+void export_mcap(const HMap& map, const OccupancyGrid& grid, const PoseList& trajectory, const ExportOptions& o) {
+  const auto t0 = Clock::now();
+  ros::FoxgloveSceneStats stats;
+  write_file_atomic(o.mcap, [&](std::ostream& out) {
+    stats = ros::write_foxglove_mcap(map, &grid, trajectory, [&](std::span<const std::uint8_t> b) {
+      out.write(reinterpret_cast<const char*>(b.data()), static_cast<std::streamsize>(b.size()));
+    });
+  });
+  std::string topics;
+  for (const auto& [topic, n] : stats.messages) topics += format("%s%s %llu", topics.empty() ? "" : ", ", topic.c_str(), static_cast<unsigned long long>(n));
+  const auto bytes = static_cast<double>(stats.bytes);
+  std::printf("wrote %s (%s, %.1f s): messages %s; %llu HVoxel cubes, %llu points, the 2D grid of %zu cells\n", o.mcap.c_str(),
+              (bytes < 1e6 ? format("%.1f kB", bytes / 1e3) : format("%.1f MB", bytes / 1e6)).c_str(), ms_since(t0) / 1000.0, topics.c_str(),
+              static_cast<unsigned long long>(stats.cubes), static_cast<unsigned long long>(stats.points), grid.known_cells());
+}
+
 void run_export(const ExportOptions& o) {
-  if (o.ply.empty() && o.bt.empty() && o.pgm.empty() && o.costmap.empty() && o.geotiff.empty()) {
-    throw Error("nothing to export: give --ply OUT.ply, --bt OUT.bt, --pgm OUT, --costmap OUT and/or --geotiff OUT.tif");
+  if (o.ply.empty() && o.bt.empty() && o.pgm.empty() && o.costmap.empty() && o.geotiff.empty() && o.mcap.empty()) {
+    throw Error("nothing to export: give --ply OUT.ply, --bt OUT.bt, --pgm OUT, --costmap OUT, --geotiff OUT.tif and/or --mcap OUT.mcap");
   }
   validate(o.traversability);
   if (o.z_step != 0.0 && !(o.z_step >= 1e-3 && o.z_step <= 100.0)) {
@@ -178,6 +200,7 @@ void run_export(const ExportOptions& o) {
   if (!o.ply.empty()) check_output_extension(o.ply, {".ply"}, "--ply writes a PLY file");
   if (!o.bt.empty()) check_output_extension(o.bt, {".bt"}, "--bt writes an OctoMap binary tree");
   if (!o.geotiff.empty()) check_output_extension(o.geotiff, {".tif", ".tiff"}, "--geotiff writes a GeoTIFF");
+  if (!o.mcap.empty()) check_output_extension(o.mcap, {".mcap"}, "--mcap writes an MCAP recording");
   if (!o.ply.empty()) check_output_file(o.ply);
   if (!o.bt.empty()) check_output_file(o.bt);
   if (!o.pgm.empty()) {
@@ -187,12 +210,20 @@ void run_export(const ExportOptions& o) {
     for (const char* ext : {".pgm", ".yaml"}) check_output_file(pgm_stem(o.costmap).concat(ext));
   }
   if (!o.geotiff.empty()) check_output_file(o.geotiff);
+  if (!o.mcap.empty()) check_output_file(o.mcap);
+  if (!o.trajectory.empty() && o.mcap.empty()) throw Error("--trajectory goes with --mcap (the poses as /trajectory)");
+  const PoseList trajectory = o.trajectory.empty() ? PoseList{} : read_poses(o.trajectory);
   MapFile file = load_map_file(o.map);
   const HMap& map = file.map;
+  if (!o.mcap.empty() && (!file.grid || file.grid->known_cells() == 0)) {
+    throw Error(o.map + ": the map holds no 2D grid (built with --hvoxels-only?), nothing for /map in " + o.mcap +
+                "; rebuild it with hmap map without --hvoxels-only");
+  }
   // The .bt's free leaves come from the exported grid when the map holds one and its ground.
   const bool bt_free = !o.bt.empty() && file.grid && file.grid->known_cells() > 0 && !file.ground.empty();
   std::optional<GridChoice> chosen;
-  if (!o.pgm.empty() || !o.costmap.empty() || !o.geotiff.empty() || bt_free) chosen = choose_grid(file, o);
+  if (!o.pgm.empty() || !o.costmap.empty() || !o.geotiff.empty() || !o.mcap.empty() || bt_free) chosen = choose_grid(file, o);
+  if (!o.mcap.empty()) export_mcap(map, chosen->grid, trajectory, o);
   if (!o.pgm.empty() || !o.costmap.empty() || !o.geotiff.empty()) {
     const GridChoice& choice = *chosen;
     // Free from one clear ground pass on (p <= K_g), occupied above 0.65: the PGM, its counts and
@@ -236,7 +267,7 @@ void run_export(const ExportOptions& o) {
 
 void add_export_command(CLI::App& app) {
   auto opts = std::make_shared<ExportOptions>();
-  auto* cmd = app.add_subcommand("export", "Write a map as PLY (HVoxel boxes, or the recovered points), an OctoMap .bt, a 2D grid, a costmap or a ground GeoTIFF");
+  auto* cmd = app.add_subcommand("export", "Write a map as PLY (HVoxel boxes, or the recovered points), an OctoMap .bt, a 2D grid, a costmap, a ground GeoTIFF or an MCAP for Foxglove");
   cmd->add_option("map", opts->map, "Map file (.hmap)")->required();
   cmd->add_option("--ply", opts->ply, "Output PLY file");
   cmd->add_option("--pgm", opts->pgm, "Output 2D occupancy as ROS map_server PGM + YAML (OUT.pgm, OUT.yaml)");
@@ -261,6 +292,12 @@ void add_export_command(CLI::App& app) {
   cmd->add_option("--inflation", opts->traversability.inflation_radius,
                   "[m] with --costmap: lethal cells raise the cost within this radius (99 exp(-3 d))")
       ->capture_default_str();
+  cmd->add_option("--mcap", opts->mcap,
+                  "Output MCAP recording for Foxglove (OUT.mcap): /map nav_msgs/OccupancyGrid (the --pgm grid), /grid "
+                  "foxglove.Grid, /tf, /hvoxels foxglove.SceneUpdate cubes coloured by height, /points foxglove.PointCloud");
+  cmd->add_option("--trajectory", opts->trajectory,
+                  "With --mcap: poses file (KITTI or TUM, in the map frame, as render draws them) written as /trajectory "
+                  "foxglove.PosesInFrame");
   cmd->add_option("--bt", opts->bt, "Output OctoMap binary tree (.bt), for octovis and the octomap tools");
   cmd->add_flag("--points", opts->points, "Write the height-upsampled point cloud instead of boxes");
   cmd->add_option("--z-step", opts->z_step, "Vertical spacing of recovered points [m] (default: the cell size)");

@@ -396,3 +396,49 @@ TEST_F(CliTest, SlamAndPvoxReadRgbdFrames) {
 
 }  // namespace
 }  // namespace hmap
+
+namespace hmap {
+namespace {
+
+// export --mcap: one summary line, an MCAP file (atomically in place), and bad input refused
+// before any work with one line and exit 2. The file's content is tested in tests/ros.
+TEST_F(CliTest, ExportsAnMcapForFoxgloveAndRefusesBadInput) {
+  HMap map(indoor_preset());
+  map.column_for_update({3, -2}).push_back({0.0F, 0.4F, 50.0F, 0.9F});
+  map.column_for_update({-7, 5}).push_back({-0.3F, 0.2F, 1.0F, 0.3F});
+  OccupancyGrid grid(map.cell_size(), 0.12, 0.97);
+  grid.update({3, -2}, 2.0F);
+  grid.update({0, 0}, -2.0F);
+  save_hmap(path("m.hmap"), map, {}, &grid);
+  save_hmap(path("no_grid.hmap"), map);
+
+  std::ofstream(path("poses.txt")) << "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 1 0 1 0 0 0 0 1 0\n";
+  const CmdResult r = run("export " + path("m.hmap") + " --mcap " + path("m.mcap") + " --trajectory " + path("poses.txt"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(lines(r.out), 1U) << r.out;
+  // Two HVoxels in two tiles of 64 cells (cell -7 lies in tile -1): two SceneUpdates.
+  EXPECT_NE(r.out.find("/grid 1, /hvoxels 2, /map 1, /points 1, /tf 1, /trajectory 1"), std::string::npos) << r.out;
+  std::ifstream in(path("m.mcap"), std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), {});
+  ASSERT_GT(bytes.size(), 16U);
+  EXPECT_EQ(bytes.substr(0, 8), std::string("\x89MCAP0\r\n", 8));
+  EXPECT_EQ(bytes.substr(bytes.size() - 8), std::string("\x89MCAP0\r\n", 8));
+
+  for (const auto& [args, says] : std::vector<std::pair<std::string, std::string>>{
+           {path("m.hmap") + " --mcap " + path("m.bag"), "ending in .mcap"},
+           {path("m.hmap") + " --mcap " + path("no/such/folder/m.mcap"), "does not exist"},
+           {path("no_grid.hmap") + " --mcap " + path("n.mcap"), "no 2D grid"},
+           {path("m.hmap") + " --mcap " + path("n.mcap") + " --trajectory " + path("none.txt"), "none.txt"},
+           {path("m.hmap") + " --ply " + path("n.ply") + " --trajectory " + path("poses.txt"), "goes with --mcap"}}) {
+    const CmdResult bad = run("export " + args);
+    EXPECT_EQ(bad.code, 2) << bad.out;
+    EXPECT_EQ(lines(bad.out), 1U) << bad.out;
+    EXPECT_NE(bad.out.find(says), std::string::npos) << bad.out;
+  }
+  EXPECT_FALSE(std::filesystem::exists(path("m.bag")));
+  EXPECT_FALSE(std::filesystem::exists(path("n.mcap")));
+  EXPECT_FALSE(std::filesystem::exists(path("n.ply")));
+}
+
+}  // namespace
+}  // namespace hmap
