@@ -306,6 +306,31 @@ TEST_F(PcdTest, AppliesTheViewpoint) {
   EXPECT_TRUE(contains(input_error_of([&] { (void)read_pcd(write("s.pcd", text)); }), "VIEWPOINT expects 7 numbers"));
 }
 
+// A point finite in the file can leave float's range once the viewpoint moves it (the fuzzer's find:
+// 3e38 shifted by 1e38, or turned 45° with y = 3e38). It is dropped and counted, never returned as inf,
+// and its time goes with it.
+TEST_F(PcdTest, APointTheViewpointMovesOutOfFloatRangeIsDroppedWithItsTime) {
+  std::string text = header("x y z t", "4 4 4 4", "F F F F", "1 1 1 1", 3, 1, "ascii") +
+                     "1 2 3 0.1\n3e38 0 0 0.2\n-3e38 3e38 0 0.3\n";
+  text.replace(text.find("VIEWPOINT 0 0 0 1 0 0 0"), 23, "VIEWPOINT 1e38 0 0 1 0 0 0");
+  CloudReadStats stats;
+  std::vector<float> times;
+  PointCloud cloud = read_pcd(write("far.pcd", text), &stats, &times);
+  ASSERT_EQ(cloud.size(), 2U);  // 3e38 + 1e38 leaves float's range; 1 + 1e38 and -3e38 + 1e38 do not
+  EXPECT_EQ(stats.points_read, 3U);
+  EXPECT_EQ(stats.non_finite_dropped, 1U);
+  ASSERT_EQ(times.size(), 2U);
+  EXPECT_FLOAT_EQ(times[1] - times[0], 0.2F);  // the dropped point's time went with it (0.1, 0.3 kept)
+  // 45° about z: (3e38, 3e38) turns to (0, 4.2e38).
+  text = header("x y z", "4 4 4", "F F F", "1 1 1", 2, 1, "ascii") + "3e38 3e38 0\n1 0 0\n";
+  text.replace(text.find("VIEWPOINT 0 0 0 1 0 0 0"), 23, "VIEWPOINT 0 0 0 0.92387953 0 0 0.38268343");
+  stats = {};
+  cloud = read_pcd(write("turn.pcd", text), &stats);
+  ASSERT_EQ(cloud.size(), 1U);
+  EXPECT_EQ(stats.non_finite_dropped, 1U);
+  for (const Point3f& p : cloud) EXPECT_TRUE(p.allFinite());
+}
+
 // ---- real data ----
 
 TEST(PcdRealData, ReadsKinectOrganizedCompressedClouds) {
