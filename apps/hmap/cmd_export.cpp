@@ -5,6 +5,7 @@
 #include <cstdio>
 
 #include "cli_common.hpp"
+#include "mcap_output.hpp"
 #include "hmap/core/format.hpp"
 #include "hmap/io/atomic_file.hpp"
 #include "hmap/core/error.hpp"
@@ -14,9 +15,9 @@
 #include "hmap/io/geotiff.hpp"
 #include "hmap/io/pgm_export.hpp"
 #include "hmap/io/ply_export.hpp"
+#include "hmap/occupancy/exported_grid.hpp"
 #include "hmap/occupancy/occupancy_update.hpp"
 #include "hmap/io/octomap_export.hpp"
-#include "hmap/ros/foxglove_scene.hpp"
 
 namespace hmap::cli {
 
@@ -52,68 +53,24 @@ std::pair<std::size_t, std::size_t> count_classes(const OccupancyGrid& grid, con
   return {occupied, free_cells};
 }
 
-/// The 2D grid to export and the ground it was judged on, with a sentence saying which it is.
-struct GridChoice {
-  OccupancyGrid grid;
-  std::vector<GroundPatch> ground;
-  std::string what;
-};
-
-/// A map without its own grid: ground patches by Alg. 4 from a hint (given, or the middle of the
-/// map at a low height), then each column judged by eq. (4)'s cases.
-GridChoice derive_grid(const HMap& map, const ExportOptions& o) {
-  const MapStats st = map.stats();
-  if (st.hvoxels == 0) throw Error(o.map + ": the map is empty, nothing to export");
-  Params params = map.params();
-  Eigen::Vector3d hint;
-  if (o.ground_hint.size() == 3) {
-    hint = {o.ground_hint[0], o.ground_hint[1], o.ground_hint[2]};
-  } else {
-    std::vector<float> tops;
-    map.for_each_column([&](const CellKey&, const ColumnView& c) { tops.push_back(c[0].z_max); });
-    std::sort(tops.begin(), tops.end());
-    const Eigen::Vector3d mid = st.bounds.center();
-    hint = {mid.x(), mid.y(), tops[tops.size() / 5] + 0.5};  // above the low fifth of the lowest tops
-  }
-  // K of the paper (400) explores a few hundred square metres; grow it with the map's area.
-  const double d_n = params.ground.expansion_distance;
-  const double area = st.bounds.sizes().x() * st.bounds.sizes().y();
-  params.ground.iterations = o.ground_iterations > 0
-                                 ? o.ground_iterations
-                                 : std::clamp(static_cast<int>(2.0 * area / (d_n * d_n)), params.ground.iterations, 4000);
-  const auto t0 = Clock::now();
-  GroundResult ground = extract_ground(map, hint, params.ground);
-  if (!ground.seeded) {
-    throw Error(o.map + ": no ground found near the hint (" + std::to_string(hint.x()) + ", " + std::to_string(hint.y()) +
-                ", " + std::to_string(hint.z()) + "); give --ground-hint X Y Z near the floor");
-  }
-  const GroundModel model(ground.patches);
-  const std::string what = format(
-      "derived from %zu ground patches (%d RRT iterations, %.1f s); cells without a ground patch within %.2f m are "
-      "unknown",
-      ground.patches.size(), params.ground.iterations, ms_since(t0) / 1000.0, 2.0 * d_n);
-  return {occupancy_from_map(map, model, params, 2.0 * d_n), std::move(ground.patches), what};
-}
-
-/// The grid kept scan by scan (eq. 3-4 with every ray) is the better map; a map saved without it
-/// (hmap map --hvoxels-only, or older files) or --rederive gets one derived from its columns.
-/// "both" (default): each cell the more occupied of the grid kept scan by scan and the columns of
-/// the final map judged by eq. (4) on the same ground patches. The kept grid alone misses what few
-/// rays hit; the judged one misses what later scans carved; docs/COMPARE.md has the figures.
+/// The grid to export (hmap/occupancy/exported_grid.hpp) with the map's name in its errors, and a
+/// derived grid's search time in its sentence.
+using GridChoice = ExportedGrid;
 GridChoice choose_grid(MapFile& file, const ExportOptions& o) {
-  const HMap& map = file.map;
-  if (!file.grid || file.grid->known_cells() == 0 || o.rederive) return derive_grid(map, o);
-  const Params& params = map.params();
-  std::optional<OccupancyGrid> judged;
-  if (o.grid != "kept" && !file.ground.empty()) {
-    judged = occupancy_from_map(map, GroundModel(file.ground), params, params.occupancy.ground_reach);
+  if (file.map.stats().hvoxels == 0) throw Error(o.map + ": the map is empty, nothing to export");
+  ExportGridParams p;
+  p.source = *parse_grid_source(o.grid);  // CLI::IsMember checked it
+  p.rederive = o.rederive;
+  if (o.ground_hint.size() == 3) p.ground_hint = Eigen::Vector3d(o.ground_hint[0], o.ground_hint[1], o.ground_hint[2]);
+  p.ground_iterations = o.ground_iterations;
+  const auto t0 = Clock::now();
+  GridChoice choice = export_grid(file.map, file.ground, file.grid ? &*file.grid : nullptr, p);
+  if (!choice.ground_found) {
+    throw Error(o.map + ": no ground found near the hint (" + std::to_string(choice.hint.x()) + ", " +
+                std::to_string(choice.hint.y()) + ", " + std::to_string(choice.hint.z()) + "); give --ground-hint X Y Z near the floor");
   }
-  if (judged && o.grid == "both") {
-    return {more_occupied(*file.grid, *judged), file.ground,
-            "the map's own 2D grid and its columns judged, the more occupied per cell"};
-  }
-  if (judged && o.grid == "judged") return {std::move(*judged), file.ground, "the map's columns judged by eq. (4) on its ground patches"};
-  return {std::move(*file.grid), file.ground, "the map's own 2D grid (kept scan by scan)"};
+  if (choice.derived) choice.what += format(" (ground search and judging %.1f s)", ms_since(t0) / 1000.0);
+  return choice;
 }
 
 /// The free space an OctoMap user can plan in: where the exported 2D grid is free by OctoMap's own
@@ -167,24 +124,6 @@ void export_traversability(const GridChoice& choice, const ExportOptions& o, con
   }
 }
 
-/// --mcap: the map as a recording Foxglove opens as it is (hmap/ros/foxglove_scene.hpp), written
-/// atomically; /map is the grid --pgm writes.
-void export_mcap(const HMap& map, const OccupancyGrid& grid, const PoseList& trajectory, const ExportOptions& o) {
-  const auto t0 = Clock::now();
-  ros::FoxgloveSceneStats stats;
-  write_file_atomic(o.mcap, [&](std::ostream& out) {
-    stats = ros::write_foxglove_mcap(map, &grid, trajectory, [&](std::span<const std::uint8_t> b) {
-      out.write(reinterpret_cast<const char*>(b.data()), static_cast<std::streamsize>(b.size()));
-    });
-  });
-  std::string topics;
-  for (const auto& [topic, n] : stats.messages) topics += format("%s%s %llu", topics.empty() ? "" : ", ", topic.c_str(), static_cast<unsigned long long>(n));
-  const auto bytes = static_cast<double>(stats.bytes);
-  std::printf("wrote %s (%s, %.1f s): messages %s; %llu HVoxel cubes, %llu points, the 2D grid of %zu cells\n", o.mcap.c_str(),
-              (bytes < 1e6 ? format("%.1f kB", bytes / 1e3) : format("%.1f MB", bytes / 1e6)).c_str(), ms_since(t0) / 1000.0, topics.c_str(),
-              static_cast<unsigned long long>(stats.cubes), static_cast<unsigned long long>(stats.points), grid.known_cells());
-}
-
 void run_export(const ExportOptions& o) {
   if (o.ply.empty() && o.bt.empty() && o.pgm.empty() && o.costmap.empty() && o.geotiff.empty() && o.mcap.empty()) {
     throw Error("nothing to export: give --ply OUT.ply, --bt OUT.bt, --pgm OUT, --costmap OUT, --geotiff OUT.tif and/or --mcap OUT.mcap");
@@ -200,7 +139,6 @@ void run_export(const ExportOptions& o) {
   if (!o.ply.empty()) check_output_extension(o.ply, {".ply"}, "--ply writes a PLY file");
   if (!o.bt.empty()) check_output_extension(o.bt, {".bt"}, "--bt writes an OctoMap binary tree");
   if (!o.geotiff.empty()) check_output_extension(o.geotiff, {".tif", ".tiff"}, "--geotiff writes a GeoTIFF");
-  if (!o.mcap.empty()) check_output_extension(o.mcap, {".mcap"}, "--mcap writes an MCAP recording");
   if (!o.ply.empty()) check_output_file(o.ply);
   if (!o.bt.empty()) check_output_file(o.bt);
   if (!o.pgm.empty()) {
@@ -210,20 +148,16 @@ void run_export(const ExportOptions& o) {
     for (const char* ext : {".pgm", ".yaml"}) check_output_file(pgm_stem(o.costmap).concat(ext));
   }
   if (!o.geotiff.empty()) check_output_file(o.geotiff);
-  if (!o.mcap.empty()) check_output_file(o.mcap);
+  if (!o.mcap.empty()) check_mcap_output(o.mcap);
   if (!o.trajectory.empty() && o.mcap.empty()) throw Error("--trajectory goes with --mcap (the poses as /trajectory)");
   const PoseList trajectory = o.trajectory.empty() ? PoseList{} : read_poses(o.trajectory);
   MapFile file = load_map_file(o.map);
   const HMap& map = file.map;
-  if (!o.mcap.empty() && (!file.grid || file.grid->known_cells() == 0)) {
-    throw Error(o.map + ": the map holds no 2D grid (built with --hvoxels-only?), nothing for /map in " + o.mcap +
-                "; rebuild it with hmap map without --hvoxels-only");
-  }
   // The .bt's free leaves come from the exported grid when the map holds one and its ground.
   const bool bt_free = !o.bt.empty() && file.grid && file.grid->known_cells() > 0 && !file.ground.empty();
   std::optional<GridChoice> chosen;
   if (!o.pgm.empty() || !o.costmap.empty() || !o.geotiff.empty() || !o.mcap.empty() || bt_free) chosen = choose_grid(file, o);
-  if (!o.mcap.empty()) export_mcap(map, chosen->grid, trajectory, o);
+  if (!o.mcap.empty()) write_map_mcap(o.mcap, map, &chosen->grid, trajectory);
   if (!o.pgm.empty() || !o.costmap.empty() || !o.geotiff.empty()) {
     const GridChoice& choice = *chosen;
     // Free from one clear ground pass on (p <= K_g), occupied above 0.65: the PGM, its counts and

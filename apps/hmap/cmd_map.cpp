@@ -3,6 +3,7 @@
 #include <cstdio>
 
 #include "cli_common.hpp"
+#include "mcap_output.hpp"
 #include "hmap/core/format.hpp"
 #include "hmap/core/sensor_profile.hpp"
 #include "hmap/io/atomic_file.hpp"
@@ -21,6 +22,7 @@ namespace {
 struct MapOptions : InputOptions {
   ParamOptions params;
   std::string out;
+  std::string mcap;
   bool hvoxels_only = false;
 #ifdef HMAP_HAVE_VIEW
   LiveViewOptions view;
@@ -31,6 +33,7 @@ void run_map(const MapOptions& o) {
   Params params = o.params.resolve();  // from the named preset (or outdoor): bad values refused first
   check_output_extension(o.out, {".hmap"}, "hmap map writes a .hmap map");
   check_output_file(o.out);  // before the work: a missing folder was found after mapping every scan
+  if (!o.mcap.empty()) check_mcap_output(o.mcap);
   const ScanSource src = o.open_inputs(/*poses_required=*/true);
   // Defaults the first scan can tell, as hmap slam takes them: the preset from the sensor's reach
   // when none is named, the height gap from a spinning LiDAR's ring spacing.
@@ -151,6 +154,14 @@ void run_map(const MapOptions& o) {
                 "ground patch near them and left the grid alone.\n",
                 occupied, free_cells, hybrid.ground_patches().size(), no_ground, grid_rays + no_ground);
   }
+  if (!o.mcap.empty()) {
+    const PoseList used(src.T_map_scan->begin(), src.T_map_scan->begin() + static_cast<std::ptrdiff_t>(src.scans.size()));
+    if (o.hvoxels_only) {
+      write_run_mcap(o.mcap, map, {}, nullptr, used);
+    } else {
+      write_run_mcap(o.mcap, map, hybrid.ground_patches(), &hybrid.grid(), used);
+    }
+  }
 #ifdef HMAP_HAVE_VIEW
   if (o.view.enabled) {
     show(format("done: %zu scans, saved to %s", src.scans.size(), o.out.c_str()), true);
@@ -168,6 +179,9 @@ void add_map_command(CLI::App& app) {
   cmd->add_option("--out,-o", opts->out, "Output map file (.hmap)")->required();
   cmd->add_flag("--hvoxels-only", opts->hvoxels_only,
                 "Build the HMAP alone (section III), without the ground patches and the 2D grid");
+  cmd->add_option("--mcap", opts->mcap,
+                  "Also write the map as an MCAP recording for Foxglove (OUT.mcap), as hmap export --mcap writes it, "
+                  "with the scans' poses as /trajectory");
   opts->params.add_to(*cmd);
 #ifdef HMAP_HAVE_VIEW
   opts->view.add_to(*cmd);

@@ -6,6 +6,7 @@
 #include <cstdio>
 
 #include "cli_common.hpp"
+#include "mcap_output.hpp"
 #include "hmap/io/prefetch.hpp"
 #include "hmap/core/error.hpp"
 #include "hmap/core/format.hpp"
@@ -38,6 +39,7 @@ struct SlamOptions : InputOptions {
   std::string imu_topic;
   std::vector<double> imu_rpy;
   std::string out;
+  std::string mcap;
 #ifdef HMAP_HAVE_VIEW
   LiveViewOptions view;
 #endif
@@ -91,6 +93,7 @@ void run_slam(const SlamOptions& o) {
   };
   Params params = resolved("outdoor");
   prepare_output_set(o.out, {"poses.txt", "poses_tum.txt", "matches.csv", "map.hmap", "trajectory.png"}, "slam");  // before the work
+  if (!o.mcap.empty()) check_mcap_output(o.mcap);
   const ScanSource src = ScanSource::open(o.sensors, o.kitti, o.files, "", o.scans, /*poses_required=*/false);
   // Defaults the first scan can tell (the ring spacing), for parameters left at the preset's value.
   CloudReadStats read_stats;
@@ -300,6 +303,8 @@ void run_slam(const SlamOptions& o) {
                      : "estimated from the scans (floor normal + map surfaces)",
       chosen_text.empty() ? "" : " Chosen from the first scan:", chosen_text.c_str(),
       imu ? (" IMU: " + std::to_string(imu_samples->size()) + " samples from " + imu_from + ".").c_str() : "", deskewed, n);
+  // SLAM keeps no 2D grid: the one export would derive from the map's columns.
+  if (!o.mcap.empty()) write_run_mcap(o.mcap, slam.map(), {}, nullptr, estimate);
 #ifdef HMAP_HAVE_VIEW
   if (o.view.enabled) {
     live.update(slam.map(), {}, nullptr, path, format("done: %zu scans, written to %s", n, o.out.c_str()), true);
@@ -330,6 +335,9 @@ void add_slam_command(CLI::App& app) {
                   "imu_pitch, imu_yaw; default identity)")
       ->expected(3);
   cmd->add_option("--out,-o", opts->out, "Output folder")->required();
+  cmd->add_option("--mcap", opts->mcap,
+                  "Also write the map and the estimated poses as an MCAP recording for Foxglove (OUT.mcap), as hmap "
+                  "export --mcap writes it, with the 2D grid derived from the map's columns");
   opts->params.add_to(*cmd);
 #ifdef HMAP_HAVE_VIEW
   opts->view.add_to(*cmd);

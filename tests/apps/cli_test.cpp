@@ -427,7 +427,8 @@ TEST_F(CliTest, ExportsAnMcapForFoxgloveAndRefusesBadInput) {
   for (const auto& [args, says] : std::vector<std::pair<std::string, std::string>>{
            {path("m.hmap") + " --mcap " + path("m.bag"), "ending in .mcap"},
            {path("m.hmap") + " --mcap " + path("no/such/folder/m.mcap"), "does not exist"},
-           {path("no_grid.hmap") + " --mcap " + path("n.mcap"), "no 2D grid"},
+           // No grid kept: one is derived from the columns as for --pgm; these two columns hold no ground.
+           {path("no_grid.hmap") + " --mcap " + path("n.mcap"), "no ground found near the hint"},
            {path("m.hmap") + " --mcap " + path("n.mcap") + " --trajectory " + path("none.txt"), "none.txt"},
            {path("m.hmap") + " --ply " + path("n.ply") + " --trajectory " + path("poses.txt"), "goes with --mcap"}}) {
     const CmdResult bad = run("export " + args);
@@ -438,6 +439,39 @@ TEST_F(CliTest, ExportsAnMcapForFoxgloveAndRefusesBadInput) {
   EXPECT_FALSE(std::filesystem::exists(path("m.bag")));
   EXPECT_FALSE(std::filesystem::exists(path("n.mcap")));
   EXPECT_FALSE(std::filesystem::exists(path("n.ply")));
+}
+
+// map/slam --mcap: the same recording export --mcap writes from the saved map (map: byte for byte,
+// with the scans' poses as /trajectory), and a bad --mcap refused before any work.
+TEST_F(CliTest, MapAndSlamWriteTheMcapExportWould) {
+  ASSERT_EQ(run("simulate --scene office --sensor kinect --frames 6 --stride 5 --seed 3 --out " + path("seq")).code, 0);
+  const CmdResult m = run("map --kitti " + path("seq") + " --preset indoor --out " + path("m.hmap") + " --mcap " + path("m.mcap"));
+  ASSERT_EQ(m.code, 0) << m.out;
+  EXPECT_NE(m.out.find("/map 1, /points 1, /tf 1, /trajectory 1"), std::string::npos) << m.out;
+  const CmdResult e = run("export " + path("m.hmap") + " --mcap " + path("e.mcap") + " --trajectory " + path("seq/poses.txt"));
+  ASSERT_EQ(e.code, 0) << e.out;
+  const auto bytes = [&](const std::string& name) {
+    std::ifstream in(path(name), std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  ASSERT_GT(bytes("m.mcap").size(), 100U);
+  EXPECT_EQ(bytes("m.mcap"), bytes("e.mcap"));
+
+  const CmdResult s = run("slam --kitti " + path("seq") + " --preset indoor --out " + path("s") + " --mcap " + path("s.mcap"));
+  ASSERT_EQ(s.code, 0) << s.out;
+  // SLAM keeps no grid: /map and /grid come from the columns, as export derives them.
+  EXPECT_NE(s.out.find("/grid 1"), std::string::npos) << s.out;
+  EXPECT_NE(s.out.find("/map 1, /points 1, /tf 1, /trajectory 1"), std::string::npos) << s.out;
+  EXPECT_EQ(bytes("s.mcap").substr(0, 8), std::string("\x89MCAP0\r\n", 8));
+
+  for (const std::string& cmd : {"map --kitti " + path("seq") + " --out " + path("n.hmap") + " --mcap " + path("n.bag"),
+                                 "slam --kitti " + path("seq") + " --out " + path("n") + " --mcap " + path("no/such/n.mcap")}) {
+    const CmdResult bad = run(cmd);
+    EXPECT_EQ(bad.code, 2) << bad.out;
+    EXPECT_EQ(lines(bad.out), 1U) << bad.out;
+  }
+  EXPECT_FALSE(std::filesystem::exists(path("n.hmap")));
+  EXPECT_FALSE(std::filesystem::exists(path("n")));
 }
 
 }  // namespace
