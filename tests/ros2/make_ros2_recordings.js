@@ -4,7 +4,9 @@
 // from the first real Ouster OS0-64 scans of ../shared/data/balm_os0 (every STEP-th point).
 //
 // usage: node make_ros2_recordings.js DATA_DIR OUT_DIR [SCANS] [STEP]
-//        node make_ros2_recordings.js DATA_DIR --full OUT.mcap   (all 80 full scans, zstd, /tf + /odom)
+//        node make_ros2_recordings.js DATA_DIR --full OUT.mcap [REPEAT]   (all 80 full scans, zstd,
+//             /tf + /odom; REPEAT > 1: the 80 scans REPEAT times over, each pass stamped after the
+//             last, for a large recording: 10 passes make about 1 GB, written as it goes)
 //
 // Written to OUT_DIR (stamps = balm_os0/times.txt; P_k = balm_os0/poses.txt):
 //   zstd.mcap, lz4.mcap, none.mcap   chunks compressed with zstd / lz4 (frame) / not at all; with a
@@ -162,6 +164,14 @@ function messagesOf(scans, full) {
   return out;
 }
 
+/// Writes as it goes (the --full recording is too large to hold twice).
+class StreamWritable {
+  constructor(file) { this.fd = fs.openSync(file, "w"); this.size = 0n; }
+  position() { return this.size; }
+  async write(buffer) { fs.writeSync(this.fd, buffer); this.size += BigInt(buffer.byteLength); }
+  close() { fs.closeSync(this.fd); }
+}
+
 class FileWritable {
   constructor() { this.parts = []; this.size = 0n; }
   position() { return this.size; }
@@ -191,8 +201,7 @@ function bigEndianCloud(msg, scan) {
   return w.data;
 }
 
-async function writeMcap(messages, { compression, summary, encoding, bigEndianClouds }) {
-  const writable = new FileWritable();
+async function writeMcap(messages, { compression, summary, encoding, bigEndianClouds, writable = new FileWritable() }) {
   const compressChunk =
     compression === "zstd" ? (d) => ({ compression: "zstd", compressedData: zstd.compress(d, 3) })
     : compression === "lz4" ? (d) => ({ compression: "lz4", compressedData: lz4.compress(d) })
@@ -217,7 +226,7 @@ async function writeMcap(messages, { compression, summary, encoding, bigEndianCl
     await writer.addMessage({ channelId: channels[topic], sequence: sequence++, logTime: ns, publishTime: ns, data });
   }
   await writer.end();
-  return { bytes: writable.bytes(), counts };
+  return { bytes: writable.bytes ? writable.bytes() : undefined, counts };
 }
 
 /// The messages @mcap/core's own stream reader reads from `bytes` (it stops at an incomplete record).
@@ -238,9 +247,20 @@ async function main() {
   await zstd.isLoaded;
   if (outArg === "--full") {
     const scans = readScans(dataDir, 80, 1);
-    const { bytes, counts } = await writeMcap(messagesOf(scans, true), { compression: "zstd", summary: true });
-    fs.writeFileSync(third, bytes);
-    console.log(`${third}: ${bytes.length} bytes`, counts);
+    const repeat = Number(fourth ?? 1);
+    if (!(Number.isInteger(repeat) && repeat >= 1 && repeat <= 100)) throw new Error(`REPEAT ${fourth}: give 1..100`);
+    const period = scans[scans.length - 1].t - scans[0].t + 0.5;
+    // Pass r: the same scans and poses, every stamp r periods later. Messages are made pass by pass.
+    function* passes() {
+      for (let r = 0; r < repeat; ++r) {
+        const messages = messagesOf(scans.map((s) => ({ ...s, t: s.t + r * period })), true);
+        yield* (r === 0 ? messages : messages.filter(([topic]) => topic !== "/tf_static"));
+      }
+    }
+    const writable = new StreamWritable(third);
+    const { counts } = await writeMcap(passes(), { compression: "zstd", summary: true, writable });
+    writable.close();
+    console.log(`${third}: ${writable.size} bytes`, counts);
     return;
   }
   const out = outArg;

@@ -349,6 +349,7 @@ Reader::Reader(std::shared_ptr<const ByteSource> source, std::string name) : sou
         if (crc != 0 && file_crc(src, 0, summary_start - 13) != crc) {
           throw InputError(name_, at_byte(summary_start - 13), "data section CRC mismatch (the recording is damaged)");
         }
+        data_crc_checked_ = crc != 0;
       }
     }
   }
@@ -448,6 +449,7 @@ void Reader::scan_data_section() {
         if (crc != 0 && file_crc(src, 0, at) != crc) {
           throw InputError(name_, at_byte(at), "data section CRC mismatch (the recording is damaged)");
         }
+        data_crc_checked_ = crc != 0;
       }
       ended = true;
       break;
@@ -492,20 +494,134 @@ void Reader::scan_data_section() {
   }
 }
 
-const std::vector<std::uint8_t>& Reader::chunk_records(std::size_t chunk) const {
-  if (cached_chunk_ != chunk) {
-    const ChunkInfo& c = info_.chunks.at(chunk);
-    const auto data = read_bytes(*source_, c.records_offset, c.compressed_size);
-    cached_chunk_ = MessageRef::kNoChunk;
-    cached_records_ = decompress_chunk(data, c.compression, c.uncompressed_size, c.uncompressed_crc, name_,
-                                       "chunk at " + at_byte(c.record_offset));
-    cached_chunk_ = chunk;
+/// std::allocator that leaves bytes uninitialised on resize: a decompression buffer is written
+/// before it is read, and zero-filling it cost as much as a tenth of reading a recording.
+template <typename T>
+struct UninitialisedAllocator : std::allocator<T> {
+  using std::allocator<T>::allocator;
+  template <typename U>
+  struct rebind {
+    using other = UninitialisedAllocator<U>;
+  };
+  template <typename U>
+  void construct(U* p) noexcept {
+    ::new (static_cast<void*>(p)) U;
   }
-  return cached_records_;
+  template <typename U, typename... Args>
+  void construct(U* p, Args&&... args) {
+    ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
+  }
+};
+
+/// One chunk, decompressed as far as needed so far; a zstd stream goes on from where it stopped.
+struct Reader::ChunkCache {
+  std::size_t chunk = MessageRef::kNoChunk;
+  std::vector<std::uint8_t, UninitialisedAllocator<std::uint8_t>> compressed;
+  std::vector<std::uint8_t, UninitialisedAllocator<std::uint8_t>> out;
+  std::size_t produced = 0;
+  std::uint64_t limit = 0;  ///< the chunk's stated uncompressed size
+  bool complete = false;
+  std::unique_ptr<ZSTD_DStream, decltype(&ZSTD_freeDStream)> zstd{nullptr, ZSTD_freeDStream};
+  ZSTD_inBuffer in{};
+  std::size_t ret = 1;  ///< ZSTD_decompressStream's last answer (0: a frame just ended)
+};
+
+Reader::~Reader() = default;
+Reader::Reader(Reader&&) noexcept = default;
+Reader& Reader::operator=(Reader&&) noexcept = default;
+
+std::span<const std::uint8_t> Reader::chunk_records(std::size_t chunk, std::uint64_t needed) const {
+  const ChunkInfo& c = info_.chunks.at(chunk);
+  const std::string position = "chunk at " + at_byte(c.record_offset);
+  if (!cache_) cache_ = std::make_unique<ChunkCache>();
+  ChunkCache& k = *cache_;
+  try {
+    if (k.chunk != chunk) {
+      k.chunk = MessageRef::kNoChunk;
+      k.complete = false;
+      k.produced = 0;
+      k.limit = c.uncompressed_size;
+      k.compressed.resize(static_cast<std::size_t>(c.compressed_size));
+      source_->read(c.records_offset, std::span<std::uint8_t>(k.compressed.data(), k.compressed.size()));
+      if (c.compression != "zstd" || !data_crc_checked_) {
+        // Whole, with the chunk's CRC: uncompressed and lz4 chunks, and any chunk of a recording
+        // whose bytes no data section CRC vouched for.
+        const auto records = decompress_chunk(std::span<const std::uint8_t>(k.compressed.data(), k.compressed.size()), c.compression, c.uncompressed_size,
+                                              data_crc_checked_ ? 0 : c.uncompressed_crc, name_, position);
+        k.out.assign(records.begin(), records.end());
+        k.produced = k.out.size();
+        k.complete = true;
+      } else {
+        if (c.uncompressed_size > kMaxChunkBytes) {
+          throw InputError(name_, position, "chunk claims " + std::to_string(c.uncompressed_size) +
+                                                " uncompressed bytes, more than a chunk holds");
+        }
+        if (!k.zstd) k.zstd.reset(ZSTD_createDStream());
+        if (!k.zstd || ZSTD_isError(ZSTD_initDStream(k.zstd.get()))) throw Error("zstd: cannot create a decompression stream");
+        k.in = ZSTD_inBuffer{k.compressed.data(), k.compressed.size(), 0};
+        k.ret = 1;
+        k.out.clear();
+      }
+      k.chunk = chunk;
+    }
+    needed = std::min<std::uint64_t>(needed, k.limit);
+    if (!k.complete && needed == k.limit && k.limit > 0) {
+      // The whole chunk: in one pass into a buffer of its size (zstd then writes straight into it,
+      // where the stream would go through its own window and copy out), starting over from the
+      // frame's start if a smaller read began it. The size is the chunk record's, which the data
+      // section's CRC vouched for; the buffer is not zero-filled, so only what zstd writes is touched.
+      k.out.resize(static_cast<std::size_t>(k.limit));
+      const std::size_t got = ZSTD_decompress(k.out.data(), k.out.size(), k.compressed.data(), k.compressed.size());
+      if (ZSTD_isError(got)) throw InputError(name_, position, std::string("zstd chunk: ") + ZSTD_getErrorName(got));
+      if (got != k.limit) {
+        throw InputError(name_, position, "chunk decompresses to " + std::to_string(got) + " bytes, its record says " +
+                                              std::to_string(k.limit));
+      }
+      k.produced = got;
+      k.complete = true;
+    }
+    while (!k.complete && k.produced < needed + (needed == k.limit ? 1 : 0)) {
+      if (k.produced == k.out.size()) {
+        if (k.out.size() >= k.limit) {
+          // Every stated byte is out: the frame must end without more.
+          ZSTD_outBuffer o{nullptr, 0, 0};
+          if (k.ret != 0) k.ret = ZSTD_decompressStream(k.zstd.get(), &o, &k.in);
+          if (ZSTD_isError(k.ret) || k.ret != 0 || k.in.pos != k.in.size) {
+            throw InputError(name_, position, "zstd chunk is cut off or holds more than its stated size");
+          }
+          k.complete = true;
+          break;
+        }
+        // Grown as the data decompresses (a damaged size claims nothing we allocate up front): to
+        // what this read needs, at least twice the last size; the whole chunk at once when four
+        // times the compressed bytes reach it.
+        const std::uint64_t want = std::max<std::uint64_t>({needed, 2 * k.out.size(), 65536,
+                                                            needed == k.limit ? 4 * k.compressed.size() : 0});
+        k.out.resize(static_cast<std::size_t>(std::min<std::uint64_t>(k.limit, want)));
+      }
+      ZSTD_outBuffer o{k.out.data(), k.out.size(), k.produced};
+      k.ret = ZSTD_decompressStream(k.zstd.get(), &o, &k.in);
+      k.produced = o.pos;
+      if (ZSTD_isError(k.ret)) throw InputError(name_, position, std::string("zstd chunk: ") + ZSTD_getErrorName(k.ret));
+      if (k.ret == 0 && k.in.pos == k.in.size) {
+        if (k.produced != k.limit) {
+          throw InputError(name_, position, "chunk decompresses to " + std::to_string(k.produced) +
+                                                " bytes, its record says " + std::to_string(k.limit));
+        }
+        k.complete = true;
+      } else if (k.produced < k.out.size() && k.in.pos == k.in.size) {
+        throw InputError(name_, position, "zstd chunk is cut off or holds more than its stated size");
+      }
+    }
+  } catch (...) {
+    k.chunk = MessageRef::kNoChunk;
+    throw;
+  }
+  return {k.out.data(), k.produced};
 }
 
 void Reader::walk_chunk(std::size_t chunk, const std::set<std::uint16_t>* channels, std::vector<MessageRef>* out) {
-  const std::vector<std::uint8_t>& records = chunk_records(chunk);
+  const std::span<const std::uint8_t> records = chunk_records(chunk);
   const std::string where = "chunk at " + at_byte(info_.chunks[chunk].record_offset);
   for (std::size_t at = 0; at < records.size();) {
     if (records.size() - at < kRecordPrefix) throw InputError(name_, where, "record cut off inside the chunk");
@@ -513,7 +629,7 @@ void Reader::walk_chunk(std::size_t chunk, const std::set<std::uint16_t>* channe
     const std::uint64_t length = le64(records.data() + at + 1);
     if (length > records.size() - at - kRecordPrefix) throw InputError(name_, where, "record runs past the chunk's end");
     const std::size_t content_at = at + kRecordPrefix;
-    Cursor c(std::span<const std::uint8_t>(records).subspan(content_at, static_cast<std::size_t>(length)), content_at, name_, "record in chunk");
+    Cursor c(records.subspan(content_at, static_cast<std::size_t>(length)), content_at, name_, "record in chunk");
     if (opcode == kSchema) {
       add_schema(c, info_);
     } else if (opcode == kChannel) {
@@ -596,29 +712,32 @@ std::vector<std::uint8_t> Reader::read(const MessageRef& ref) const {
     }
     return read_bytes(*source_, ref.offset, ref.length);
   }
-  const auto& records = chunk_records(ref.chunk);
+  const std::uint64_t chunk_size = info_.chunks.at(ref.chunk).uncompressed_size;
   if (ref.length == MessageRef::kFromRecord) {
     // Listed by a Message Index: the record at the offset must be a message of that channel.
     const std::string where = "chunk " + std::to_string(ref.chunk) + ", offset " + std::to_string(ref.offset);
-    if (ref.offset > records.size() || records.size() - ref.offset < kRecordPrefix + kMessageFixed) {
+    if (ref.offset > chunk_size || chunk_size - ref.offset < kRecordPrefix + kMessageFixed) {
       throw InputError(name_, where, "message index points past the chunk's end");
     }
+    auto records = chunk_records(ref.chunk, ref.offset + kRecordPrefix + kMessageFixed);
     const std::uint8_t* head = records.data() + ref.offset;
     const std::uint64_t length = le64(head + 1);
-    if (head[0] != kMessage || length < kMessageFixed || length > records.size() - ref.offset - kRecordPrefix) {
+    if (head[0] != kMessage || length < kMessageFixed || length > chunk_size - ref.offset - kRecordPrefix) {
       throw InputError(name_, where, "message index points to no whole message record");
     }
     if ((static_cast<std::uint16_t>(head[kRecordPrefix]) | static_cast<std::uint16_t>(head[kRecordPrefix + 1]) << 8) != ref.channel) {
       throw InputError(name_, where, "message index points to a message of another channel");
     }
-    const auto begin = records.begin() + static_cast<std::ptrdiff_t>(ref.offset + kRecordPrefix + kMessageFixed);
-    return {begin, begin + static_cast<std::ptrdiff_t>(length - kMessageFixed)};
+    records = chunk_records(ref.chunk, ref.offset + kRecordPrefix + length);
+    const auto* begin = records.data() + ref.offset + kRecordPrefix + kMessageFixed;
+    return {begin, begin + (length - kMessageFixed)};
   }
-  if (ref.offset > records.size() || ref.length > records.size() - ref.offset) {
+  if (ref.offset > chunk_size || ref.length > chunk_size - ref.offset) {
     throw InputError(name_, "chunk " + std::to_string(ref.chunk), "message runs past the chunk's end");
   }
-  const auto begin = records.begin() + static_cast<std::ptrdiff_t>(ref.offset);
-  return {begin, begin + static_cast<std::ptrdiff_t>(ref.length)};
+  const auto records = chunk_records(ref.chunk, ref.offset + ref.length);
+  const auto* begin = records.data() + ref.offset;
+  return {begin, begin + ref.length};
 }
 
 }  // namespace hmap::ros::mcap

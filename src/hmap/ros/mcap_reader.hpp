@@ -84,25 +84,35 @@ struct Info {
   std::vector<std::string> warnings;  ///< e.g. cut off
 };
 
-/// An MCAP file open for reading. Not thread-safe (it keeps the last decompressed chunk).
+/// An MCAP file open for reading. Not thread-safe (it keeps the last chunk, decompressed as far as
+/// the messages read so far needed).
 class Reader {
  public:
   /// Checks the magic, the header and the footer, reads the summary when there is one (else scans
   /// the data section), and checks the data section's CRC when written. Throws InputError(name, ...).
   Reader(std::shared_ptr<const ByteSource> source, std::string name);
+  ~Reader();
+  Reader(Reader&&) noexcept;
+  Reader& operator=(Reader&&) noexcept;
 
   [[nodiscard]] const Info& info() const { return info_; }
   /// The messages of `channels` in file order (skipping chunks whose index says they hold none;
   /// from the chunks' Message Index records when the summary points to them, so that listing
   /// does not decompress the chunks that reading will).
   [[nodiscard]] std::vector<MessageRef> messages(const std::set<std::uint16_t>& channels) const;
-  /// One message's data (the chunk's CRC checked when it is decompressed).
+  /// One message's data. When the data section's CRC was checked at opening (every byte of every
+  /// chunk as written), a zstd chunk is decompressed only as far as the message ends, and on from
+  /// there for a later message of the same chunk (a /tf message before a large cloud costs a block,
+  /// not the chunk); otherwise each chunk is decompressed whole and its own CRC checked.
   [[nodiscard]] std::vector<std::uint8_t> read(const MessageRef& ref) const;
 
  private:
   void read_summary(std::uint64_t summary_start, std::uint64_t summary_end);
   void scan_data_section();
-  const std::vector<std::uint8_t>& chunk_records(std::size_t chunk) const;
+  struct ChunkCache;
+  /// Chunk `chunk`'s records decompressed at least up to byte `needed` (clamped to the chunk's
+  /// size; every byte when partial reads are not allowed).
+  std::span<const std::uint8_t> chunk_records(std::size_t chunk, std::uint64_t needed = UINT64_MAX) const;
   void walk_chunk(std::size_t chunk, const std::set<std::uint16_t>* channels, std::vector<MessageRef>* out);
   /// Appends the messages of `channels` in chunk `chunk` from its Message Index records, in
   /// record order; false (nothing appended) when a channel the chunk holds has no index.
@@ -112,8 +122,8 @@ class Reader {
   std::string name_;
   Info info_;
   std::vector<MessageRef> scanned_;  ///< every message, when the data section was scanned
-  mutable std::size_t cached_chunk_ = MessageRef::kNoChunk;
-  mutable std::vector<std::uint8_t> cached_records_;
+  bool data_crc_checked_ = false;  ///< the Data End's CRC was written and matched at opening
+  mutable std::unique_ptr<ChunkCache> cache_;
 };
 
 /// A chunk's records uncompressed: `compression` "", "zstd" or "lz4"; the result must be
