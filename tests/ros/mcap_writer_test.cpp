@@ -93,6 +93,52 @@ TEST(McapWriterTest, ReadBackThroughTheSummaryWithEveryMessageInOrder) {
   }
 }
 
+// A file whose data CRC matches is read a zstd chunk only as far as each message needs (hmap's
+// /tf pass before its clouds): small messages at each chunk's start read first, then the large ones
+// behind them (the chunk taken up where it stopped, or restarted whole), then all backwards, give
+// the bytes written every time. Large = 300 kB of pseudo-random bytes, several zstd blocks each.
+TEST(McapWriterTest, MessagesReadInAnyOrderFromPartlyDecompressedChunks) {
+  std::vector<std::uint8_t> file;
+  WriterOptions options;
+  options.chunk_bytes = 1000;  // each chunk closes after its large message
+  Writer writer([&](std::span<const std::uint8_t> b) { file.insert(file.end(), b.begin(), b.end()); }, options);
+  const auto schema = writer.add_schema("x", "ros2msg", "uint8[] data\n");
+  const auto small = writer.add_channel(schema, "/tf", "cdr");
+  const auto large = writer.add_channel(schema, "/cloud", "cdr");
+  std::vector<std::vector<std::uint8_t>> clouds;
+  std::uint32_t state = 12345;
+  for (std::uint64_t k = 0; k < 4; ++k) {
+    writer.write(small, 10 * k, "tf" + std::to_string(k));
+    std::vector<std::uint8_t> cloud(300000 + 1000 * k);
+    for (auto& b : cloud) {
+      state = state * 1664525U + 1013904223U;
+      b = static_cast<std::uint8_t>(state >> 24);
+    }
+    writer.write(large, 10 * k + 1, cloud);
+    clouds.push_back(std::move(cloud));
+  }
+  (void)writer.finish();
+  const Reader reader(memory_source(file), "partial.mcap");
+  ASSERT_EQ(reader.info().chunks.size(), 4U);
+  const auto tf = reader.messages({small});
+  const auto cl = reader.messages({large});
+  ASSERT_EQ(tf.size(), 4U);
+  ASSERT_EQ(cl.size(), 4U);
+  for (std::size_t k = 0; k < 4; ++k) EXPECT_EQ(reader.read(tf[k]), bytes_of("tf" + std::to_string(k))) << k;
+  for (std::size_t k = 0; k < 4; ++k) {
+    EXPECT_EQ(reader.read(tf[k]), bytes_of("tf" + std::to_string(k))) << k;  // the chunk begun here
+    EXPECT_EQ(reader.read(cl[k]), clouds[k]) << k;                             // and taken on to its end
+  }
+  for (std::size_t k = 4; k-- > 0;) {
+    EXPECT_EQ(reader.read(cl[k]), clouds[k]) << k;  // whole at once
+    EXPECT_EQ(reader.read(tf[k]), bytes_of("tf" + std::to_string(k))) << k;
+  }
+  // A damaged chunk is still found, by the data section's CRC at opening.
+  std::vector<std::uint8_t> hit = file;
+  hit[static_cast<std::size_t>(reader.info().chunks[2].records_offset) + 100] ^= 0x10;
+  EXPECT_NE(open_error(hit).find("data section CRC mismatch"), std::string::npos) << open_error(hit);
+}
+
 TEST(McapWriterTest, AFileWithoutMessagesIsWhole) {
   std::vector<std::uint8_t> file;
   Writer writer([&](std::span<const std::uint8_t> b) { file.insert(file.end(), b.begin(), b.end()); });
