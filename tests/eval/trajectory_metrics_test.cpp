@@ -113,6 +113,34 @@ TEST(TrajectoryMetricsTest, RigidOffsetIsRemovedByTheAlignment) {
   expect_pose_near(m.T_truth_estimate, T_estimate_truth.inverse(Eigen::Isometry), 1e-9);
   EXPECT_NEAR(m.rpe_frame_rot_rmse_deg, 0.0, 1e-7);
   EXPECT_NEAR(m.rpe_rot_deg_per_m, 0.0, 1e-7);
+  // A whole trajectory moved rigidly has the same motion since its start.
+  EXPECT_NEAR(m.ate_rmse_origin_m, 0.0, 1e-7);
+}
+
+// From the first pose: the estimate's first pose tilted by 2° about x (a levelled frame against
+// the first sensor's) and then the true motion, by hand: a straight 10 m along the truth's y seen
+// from a frame tilted 2° ends sin(2°)·10 m off in z at most, and every later position is off by
+// the turn of its own translation; unaligned the same 2° makes it all an offset too.
+TEST(TrajectoryMetricsTest, FromTheFirstPoseTheWorldFramesDifferenceGoes) {
+  PoseList truth, estimate;
+  const Pose tilt = make_pose(Eigen::Vector3d(2.0 * M_PI / 180.0, 0.0, 0.0), Eigen::Vector3d::Zero());
+  for (int i = 0; i <= 10; ++i) {
+    const Pose T = make_pose(Eigen::Vector3d::Zero(), Eigen::Vector3d(0.0, 1.0 * i, 0.0));
+    truth.push_back(T);
+    estimate.push_back(tilt * T);  // the same motion in a world frame turned 2°
+  }
+  const TrajectoryMetrics same = evaluate_trajectory(truth, estimate, {{5.0}, 1});
+  EXPECT_NEAR(same.ate_rmse_origin_m, 0.0, 1e-9);  // the motion since the start is the truth's
+  EXPECT_NEAR(same.ate_max_m, 2.0 * 10.0 * std::sin(M_PI / 180.0), 1e-9);  // chord of 2° at 10 m
+  // Now the estimate's motion itself turned 2° after its first pose: from the first pose the
+  // positions are off by that chord, |e_i| = 2·i·sin(1°).
+  PoseList turned{truth[0]};
+  for (int i = 1; i <= 10; ++i) turned.push_back(tilt * truth[static_cast<std::size_t>(i)]);
+  const TrajectoryMetrics m = evaluate_trajectory(truth, turned, {{5.0}, 1});
+  EXPECT_NEAR(m.ate_max_origin_m, 2.0 * 10.0 * std::sin(M_PI / 180.0), 1e-9);
+  double sq = 0.0;
+  for (int i = 0; i <= 10; ++i) sq += std::pow(2.0 * i * std::sin(M_PI / 180.0), 2);
+  EXPECT_NEAR(m.ate_rmse_origin_m, std::sqrt(sq / 11.0), 1e-9);
 }
 
 TEST(TrajectoryMetricsTest, RigidAlignmentRecoversRandomTransforms) {

@@ -141,6 +141,15 @@ TrajectoryMetrics evaluate_trajectory(const PoseList& truth, const PoseList& est
   m.ate_mean_aligned_m = ate_aligned.mean;
   m.ate_median_aligned_m = ate_aligned.median;
   m.ate_max_aligned_m = ate_aligned.max;
+  std::vector<double> errors_origin(n);
+  const Pose truth0_inv = truth[0].inverse();
+  const Pose estimate0_inv = estimate[0].inverse();
+  for (std::size_t i = 0; i < n; ++i) {
+    errors_origin[i] = ((truth0_inv * truth[i]).translation() - (estimate0_inv * estimate[i]).translation()).norm();
+  }
+  const Stats ate_origin = stats_of(std::move(errors_origin));
+  m.ate_rmse_origin_m = ate_origin.rmse;
+  m.ate_max_origin_m = ate_origin.max;
 
   // RPE between consecutive frames.
   double trans_sq = 0.0;

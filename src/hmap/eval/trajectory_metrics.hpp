@@ -50,6 +50,13 @@ struct TrajectoryMetrics {
   double ate_mean_aligned_m = 0.0;
   double ate_median_aligned_m = 0.0;
   double ate_max_aligned_m = 0.0;
+  // ATE from the first pose: both trajectories re-expressed in their first frame (T_0⁻¹ T_i, evo's
+  // --align_origin), e_i = |t(T_truth_0⁻¹ T_truth_i) − t(T_est_0⁻¹ T_est_i)|: for an estimate whose
+  // world frame is not the truth's (a gravity-levelled map against a reference in the first
+  // sensor's frame) the error of the motion since the start, the first pose's own error included
+  // in every later one.
+  double ate_rmse_origin_m = 0.0;
+  double ate_max_origin_m = 0.0;
   /// Least-squares rigid transform (no scale) from the estimate's world frame to the truth's.
   Pose T_truth_estimate = Pose::Identity();
 
