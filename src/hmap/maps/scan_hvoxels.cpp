@@ -15,16 +15,16 @@ namespace hmap {
 namespace {
 constexpr std::ptrdiff_t kRankSortMax = 8;
 
-/// floor_to<std::int32_t>, with a fast path for the cells of a scan: under 2^30 in magnitude the
-/// truncation corrected by one below zero is the floor exactly (-0.0 and integers included), and
-/// costs less than std::floor without SSE4.1 (index_points' per-point hot spot). NaN, infinities
-/// and larger values take floor_to.
-inline std::optional<std::int32_t> floor_cell(double v) {
-  if (std::abs(v) < 1073741824.0) {
-    const auto t = static_cast<std::int32_t>(v);
-    return t - (v < static_cast<double>(t) ? 1 : 0);
-  }
-  return floor_to<std::int32_t>(v);
+/// Cells at or beyond this many in magnitude are never in a scan's window: build() keeps the
+/// window's centre within 10^9 cells and the constructor its half width within 2^20 + 1.
+constexpr double kFarCells = 1073741824.0;  // 2^30
+
+/// floor(v) for |v| < kFarCells: the truncation corrected by one below zero is the floor exactly
+/// (-0.0 and integers included), and costs less than std::floor without SSE4.1 (index_points'
+/// per-point hot spot).
+inline std::int64_t floor_near(double v) {
+  const auto t = static_cast<std::int32_t>(v);
+  return t - (v < static_cast<double>(t) ? 1 : 0);
 }
 }  // namespace
 
@@ -72,32 +72,60 @@ void ScanHVoxelizer::index_points(std::span<const Point3f> points_sensor, const 
   const std::size_t n = points_sensor.size();
   point_window_.resize(n);
   point_z_.resize(n);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 8192), [&](const auto& range) {
+  // Everything the loop reads besides the point is held in locals of the task: through the
+  // captured references the compiler reloaded the rotation, the origin and the window on every
+  // point (it cannot tell that the stores to point_window_ and point_z_ leave them alone).
+  const Point3f* const points = points_sensor.data();
+  std::uint32_t* const window_of_point = point_window_.data();
+  float* const z_of_point = point_z_.data();
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 8192), [=, window = window_](const auto& range) {
+    const double r00 = R(0, 0), r01 = R(0, 1), r02 = R(0, 2);
+    const double r10 = R(1, 0), r11 = R(1, 1), r12 = R(1, 2);
+    const double r20 = R(2, 0), r21 = R(2, 1), r22 = R(2, 2);
+    const double ox = origin.x(), oy = origin.y(), oz = origin.z();
+    const std::int64_t ci = window.center.i;
+    const std::int64_t cj = window.center.j;
+    const std::int64_t half = window.half;
+    const std::int64_t width = window.width;
+    const double cell_size = cell;
+    const float r2_min = min_r2;
+    const float r2_max = max_r2;
     for (std::size_t k = range.begin(); k != range.end(); ++k) {
-      const Point3f& p_sensor = points_sensor[k];
+      const Point3f& p_sensor = points[k];
       if (!p_sensor.allFinite()) {
-        point_window_[k] = kNonFinite;
+        window_of_point[k] = kNonFinite;
         continue;
       }
       const float r2 = p_sensor.squaredNorm();
-      if (r2 < min_r2 || r2 > max_r2) {
-        point_window_[k] = kOutOfRange;
+      if (r2 < r2_min || r2 > r2_max) {
+        window_of_point[k] = kOutOfRange;
         continue;
       }
       // 2D indexing in the gravity-aligned map frame (convertToMapIndex, withinMapBounds).
-      const Eigen::Vector3d p_map = R * p_sensor.cast<double>() + origin;
-      const std::optional<std::int32_t> i = floor_cell(p_map.x() / cell);
-      const std::optional<std::int32_t> j = floor_cell(p_map.y() / cell);
+      // p_map = R · p_sensor + origin, summed in the order Eigen's product used (x, y: the
+      // columns left to right; z: the first term plus the other two), so that every bit is as before.
+      const double px = p_sensor.x();
+      const double py = p_sensor.y();
+      const double pz = p_sensor.z();
+      const double x_map = ((r00 * px + r01 * py) + r02 * pz) + ox;
+      const double y_map = ((r10 * px + r11 * py) + r12 * pz) + oy;
+      const double u = x_map / cell_size;
+      const double w = y_map / cell_size;
       // Outside the window only through float rounding at the range limit, or a pose whose
-      // linear part is not a rotation (far out, beyond an int32_t: nothing).
-      if (!i || !j || std::abs(std::int64_t{*i} - window_.center.i) > window_.half ||
-          std::abs(std::int64_t{*j} - window_.center.j) > window_.half) {
-        point_window_[k] = kOutOfRange;
+      // linear part is not a rotation (far out or NaN: the window is within kFarCells).
+      if (!(std::abs(u) < kFarCells) || !(std::abs(w) < kFarCells)) {
+        window_of_point[k] = kOutOfRange;
         continue;
       }
-      const CellKey key{*i, *j};
-      point_window_[k] = static_cast<std::uint32_t>(window_.index(key));
-      point_z_[k] = static_cast<float>(p_map.z());
+      const std::int64_t i = floor_near(u);
+      const std::int64_t j = floor_near(w);
+      if (std::abs(i - ci) > half || std::abs(j - cj) > half) {
+        window_of_point[k] = kOutOfRange;
+        continue;
+      }
+      // window.index({i, j}), from the locals.
+      window_of_point[k] = static_cast<std::uint32_t>((i - ci + half) * width + (j - cj + half));
+      z_of_point[k] = static_cast<float>((r20 * px + (r21 * py + r22 * pz)) + oz);
     }
   });
   // Number the cells in order of first appearance (serial: it builds the cell list).
