@@ -33,6 +33,9 @@ ScanHVoxelizer::ScanHVoxelizer(const MapParams& params) : params_(params) {
   window_.half = checked_count<std::int32_t>(params_.max_range / params_.cell_size, 1 << 20, "the scan window") + 1;
   window_.width = 2 * window_.half + 1;
   cell_of_window_.assign(window_.cells(), 0);
+  for (std::size_t n = 0; n < thin_density_.size(); ++n) {
+    thin_density_[n] = hvoxel_density(static_cast<double>(n), params_.min_hvoxel_height, params_);
+  }
 }
 
 void ScanHVoxelizer::build(std::span<const Point3f> points_sensor, const Pose& T_map_sensor,
@@ -212,6 +215,7 @@ void ScanHVoxelizer::cluster_heights(ScanHVoxels& out) {
   cluster_count_[0] = 0;
   for (std::size_t c = 0; c < n_cells; ++c) cluster_count_[c + 1] += cluster_count_[c];
   out.hvoxels.resize(cluster_count_[n_cells]);
+  const double min_height = params_.min_hvoxel_height;
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n_cells, 1024), [&](const auto& range) {
     for (std::size_t c = range.begin(); c != range.end(); ++c) {
       const float* z = sorted_z_.data() + cell_offset_[c];
@@ -223,8 +227,14 @@ void ScanHVoxelizer::cluster_heights(ScanHVoxels& out) {
       const float* segment = z;
       for (const float* it = z + 1; it <= z_end; ++it) {
         if (it == z_end || *it - *(it - 1) > gap) {
-          HVoxel v{*segment, *(it - 1), static_cast<float>(it - segment), 0.0F};
-          update_density(v, params_);  // eq. (1)
+          const std::ptrdiff_t points = it - segment;
+          HVoxel v{*segment, *(it - 1), static_cast<float>(points), 0.0F};
+          // eq. (1); at or under min_hvoxel_height its value depends on the count alone: from the table.
+          if (static_cast<double>(v.height()) <= min_height && points < std::ssize(thin_density_)) {
+            v.density = thin_density_[static_cast<std::size_t>(points)];
+          } else {
+            update_density(v, params_);
+          }
           *v_out++ = v;
           segment = it;
         }
