@@ -133,23 +133,32 @@ void ScanHVoxelizer::index_points(std::span<const Point3f> points_sensor, const 
   });
   // Number the cells in order of first appearance (serial: it builds the cell list).
   point_cell_.resize(n);
+  // The arrays and counters in locals, as above: the stores through point_cell_ and
+  // cell_of_window_ made the compiler reload the members on every point.
+  const std::uint32_t* const window_in = point_window_.data();
+  std::uint32_t* const slot_of_window = cell_of_window_.data();
+  std::uint32_t* const cell_out = point_cell_.data();
   std::size_t kept = 0;
+  std::size_t non_finite = 0;
+  std::size_t out_of_range = 0;
   for (std::size_t k = 0; k < n; ++k) {
-    const std::uint32_t w = point_window_[k];
+    const std::uint32_t w = window_in[k];
     if (w >= kOutOfRange) {
-      ++(w == kNonFinite ? out.dropped_non_finite : out.dropped_range);
+      ++(w == kNonFinite ? non_finite : out_of_range);
       continue;
     }
-    std::uint32_t& slot = cell_of_window_[w];
+    std::uint32_t& slot = slot_of_window[w];
     if (slot == 0) {
       out.cells.push_back({window_.key_of(w), 0, 0});
       slot = static_cast<std::uint32_t>(out.cells.size());
       used_windows_.push_back(w);
     }
-    point_cell_[kept] = slot - 1;
-    point_z_[kept] = point_z_[k];
+    cell_out[kept] = slot - 1;
+    z_of_point[kept] = z_of_point[k];
     ++kept;
   }
+  out.dropped_non_finite = non_finite;
+  out.dropped_range = out_of_range;
   point_cell_.resize(kept);
   point_z_.resize(kept);
   out.points_kept = kept;
