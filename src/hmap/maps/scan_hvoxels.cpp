@@ -15,16 +15,16 @@ namespace hmap {
 namespace {
 constexpr std::ptrdiff_t kRankSortMax = 8;
 
-/// floor_to<std::int32_t>, with a fast path for the cells of a scan: under 2^30 in magnitude the
-/// truncation corrected by one below zero is the floor exactly (-0.0 and integers included), and
-/// costs less than std::floor without SSE4.1 (index_points' per-point hot spot). NaN, infinities
-/// and larger values take floor_to.
-inline std::optional<std::int32_t> floor_cell(double v) {
-  if (std::abs(v) < 1073741824.0) {
-    const auto t = static_cast<std::int32_t>(v);
-    return t - (v < static_cast<double>(t) ? 1 : 0);
-  }
-  return floor_to<std::int32_t>(v);
+/// Cells at or beyond this many in magnitude are never in a scan's window: build() keeps the
+/// window's centre within 10^9 cells and the constructor its half width within 2^20 + 1.
+constexpr double kFarCells = 1073741824.0;  // 2^30
+
+/// floor(v) for |v| < kFarCells: the truncation corrected by one below zero is the floor exactly
+/// (-0.0 and integers included), and costs less than std::floor without SSE4.1 (index_points'
+/// per-point hot spot).
+inline std::int64_t floor_near(double v) {
+  const auto t = static_cast<std::int32_t>(v);
+  return t - (v < static_cast<double>(t) ? 1 : 0);
 }
 }  // namespace
 
@@ -33,6 +33,9 @@ ScanHVoxelizer::ScanHVoxelizer(const MapParams& params) : params_(params) {
   window_.half = checked_count<std::int32_t>(params_.max_range / params_.cell_size, 1 << 20, "the scan window") + 1;
   window_.width = 2 * window_.half + 1;
   cell_of_window_.assign(window_.cells(), 0);
+  for (std::size_t n = 0; n < thin_density_.size(); ++n) {
+    thin_density_[n] = hvoxel_density(static_cast<double>(n), params_.min_hvoxel_height, params_);
+  }
 }
 
 void ScanHVoxelizer::build(std::span<const Point3f> points_sensor, const Pose& T_map_sensor,
@@ -72,53 +75,90 @@ void ScanHVoxelizer::index_points(std::span<const Point3f> points_sensor, const 
   const std::size_t n = points_sensor.size();
   point_window_.resize(n);
   point_z_.resize(n);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 8192), [&](const auto& range) {
+  // Everything the loop reads besides the point is held in locals of the task: through the
+  // captured references the compiler reloaded the rotation, the origin and the window on every
+  // point (it cannot tell that the stores to point_window_ and point_z_ leave them alone).
+  const Point3f* const points = points_sensor.data();
+  std::uint32_t* const window_of_point = point_window_.data();
+  float* const z_of_point = point_z_.data();
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 8192), [=, window = window_](const auto& range) {
+    const double r00 = R(0, 0), r01 = R(0, 1), r02 = R(0, 2);
+    const double r10 = R(1, 0), r11 = R(1, 1), r12 = R(1, 2);
+    const double r20 = R(2, 0), r21 = R(2, 1), r22 = R(2, 2);
+    const double ox = origin.x(), oy = origin.y(), oz = origin.z();
+    const std::int64_t ci = window.center.i;
+    const std::int64_t cj = window.center.j;
+    const std::int64_t half = window.half;
+    const std::int64_t width = window.width;
+    const double cell_size = cell;
+    const float r2_min = min_r2;
+    const float r2_max = max_r2;
     for (std::size_t k = range.begin(); k != range.end(); ++k) {
-      const Point3f& p_sensor = points_sensor[k];
+      const Point3f& p_sensor = points[k];
       if (!p_sensor.allFinite()) {
-        point_window_[k] = kNonFinite;
+        window_of_point[k] = kNonFinite;
         continue;
       }
       const float r2 = p_sensor.squaredNorm();
-      if (r2 < min_r2 || r2 > max_r2) {
-        point_window_[k] = kOutOfRange;
+      if (r2 < r2_min || r2 > r2_max) {
+        window_of_point[k] = kOutOfRange;
         continue;
       }
       // 2D indexing in the gravity-aligned map frame (convertToMapIndex, withinMapBounds).
-      const Eigen::Vector3d p_map = R * p_sensor.cast<double>() + origin;
-      const std::optional<std::int32_t> i = floor_cell(p_map.x() / cell);
-      const std::optional<std::int32_t> j = floor_cell(p_map.y() / cell);
+      // p_map = R · p_sensor + origin, summed in the order Eigen's product used (x, y: the
+      // columns left to right; z: the first term plus the other two), so that every bit is as before.
+      const double px = p_sensor.x();
+      const double py = p_sensor.y();
+      const double pz = p_sensor.z();
+      const double x_map = ((r00 * px + r01 * py) + r02 * pz) + ox;
+      const double y_map = ((r10 * px + r11 * py) + r12 * pz) + oy;
+      const double u = x_map / cell_size;
+      const double w = y_map / cell_size;
       // Outside the window only through float rounding at the range limit, or a pose whose
-      // linear part is not a rotation (far out, beyond an int32_t: nothing).
-      if (!i || !j || std::abs(std::int64_t{*i} - window_.center.i) > window_.half ||
-          std::abs(std::int64_t{*j} - window_.center.j) > window_.half) {
-        point_window_[k] = kOutOfRange;
+      // linear part is not a rotation (far out or NaN: the window is within kFarCells).
+      if (!(std::abs(u) < kFarCells) || !(std::abs(w) < kFarCells)) {
+        window_of_point[k] = kOutOfRange;
         continue;
       }
-      const CellKey key{*i, *j};
-      point_window_[k] = static_cast<std::uint32_t>(window_.index(key));
-      point_z_[k] = static_cast<float>(p_map.z());
+      const std::int64_t i = floor_near(u);
+      const std::int64_t j = floor_near(w);
+      if (std::abs(i - ci) > half || std::abs(j - cj) > half) {
+        window_of_point[k] = kOutOfRange;
+        continue;
+      }
+      // window.index({i, j}), from the locals.
+      window_of_point[k] = static_cast<std::uint32_t>((i - ci + half) * width + (j - cj + half));
+      z_of_point[k] = static_cast<float>((r20 * px + (r21 * py + r22 * pz)) + oz);
     }
   });
   // Number the cells in order of first appearance (serial: it builds the cell list).
   point_cell_.resize(n);
+  // The arrays and counters in locals, as above: the stores through point_cell_ and
+  // cell_of_window_ made the compiler reload the members on every point.
+  const std::uint32_t* const window_in = point_window_.data();
+  std::uint32_t* const slot_of_window = cell_of_window_.data();
+  std::uint32_t* const cell_out = point_cell_.data();
   std::size_t kept = 0;
+  std::size_t non_finite = 0;
+  std::size_t out_of_range = 0;
   for (std::size_t k = 0; k < n; ++k) {
-    const std::uint32_t w = point_window_[k];
+    const std::uint32_t w = window_in[k];
     if (w >= kOutOfRange) {
-      ++(w == kNonFinite ? out.dropped_non_finite : out.dropped_range);
+      ++(w == kNonFinite ? non_finite : out_of_range);
       continue;
     }
-    std::uint32_t& slot = cell_of_window_[w];
+    std::uint32_t& slot = slot_of_window[w];
     if (slot == 0) {
       out.cells.push_back({window_.key_of(w), 0, 0});
       slot = static_cast<std::uint32_t>(out.cells.size());
       used_windows_.push_back(w);
     }
-    point_cell_[kept] = slot - 1;
-    point_z_[kept] = point_z_[k];
+    cell_out[kept] = slot - 1;
+    z_of_point[kept] = z_of_point[k];
     ++kept;
   }
+  out.dropped_non_finite = non_finite;
+  out.dropped_range = out_of_range;
   point_cell_.resize(kept);
   point_z_.resize(kept);
   out.points_kept = kept;
@@ -184,6 +224,7 @@ void ScanHVoxelizer::cluster_heights(ScanHVoxels& out) {
   cluster_count_[0] = 0;
   for (std::size_t c = 0; c < n_cells; ++c) cluster_count_[c + 1] += cluster_count_[c];
   out.hvoxels.resize(cluster_count_[n_cells]);
+  const double min_height = params_.min_hvoxel_height;
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n_cells, 1024), [&](const auto& range) {
     for (std::size_t c = range.begin(); c != range.end(); ++c) {
       const float* z = sorted_z_.data() + cell_offset_[c];
@@ -195,8 +236,14 @@ void ScanHVoxelizer::cluster_heights(ScanHVoxels& out) {
       const float* segment = z;
       for (const float* it = z + 1; it <= z_end; ++it) {
         if (it == z_end || *it - *(it - 1) > gap) {
-          HVoxel v{*segment, *(it - 1), static_cast<float>(it - segment), 0.0F};
-          update_density(v, params_);  // eq. (1)
+          const std::ptrdiff_t points = it - segment;
+          HVoxel v{*segment, *(it - 1), static_cast<float>(points), 0.0F};
+          // eq. (1); at or under min_hvoxel_height its value depends on the count alone: from the table.
+          if (static_cast<double>(v.height()) <= min_height && points < std::ssize(thin_density_)) {
+            v.density = thin_density_[static_cast<std::size_t>(points)];
+          } else {
+            update_density(v, params_);
+          }
           *v_out++ = v;
           segment = it;
         }

@@ -2,6 +2,7 @@
 // The HVoxel representation R of one scan: Alg. 1 (2D data indexing) and Alg. 2 (height
 // clustering and HVoxel generation), in the map frame.
 
+#include <array>
 #include <span>
 #include <vector>
 
@@ -85,6 +86,9 @@ class ScanHVoxelizer {
   std::vector<std::uint32_t> cell_offset_;     // counting sort of heights by cell
   std::vector<float> sorted_z_;
   std::vector<std::uint32_t> cluster_count_;   // prefix sums of the clusters per cell
+  // eq. (1)'s density of an HVoxel of n points no taller than min_hvoxel_height (V = h_min·A):
+  // most of a scan's HVoxels, each of which cost an exp().
+  std::array<float, 64> thin_density_{};
 };
 
 }  // namespace hmap
