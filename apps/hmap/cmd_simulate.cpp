@@ -42,18 +42,19 @@ void run_simulate(const SimulateOptions& o) {
   // One set: a kill leaves the old recording or the new one (a shorter run over a longer one
   // used to leave the old run's last scans beside the new poses).
   write_folder_atomic(o.out, [&](const std::filesystem::path& dir) {
-    write_simulated_sequence(dir, rec.scans, rec.T_world_sensor, rec.times, rec.odometry, rec.truth_surface);
+    write_simulated_sequence(dir, rec.scans, rec.T_world_sensor, rec.times, rec.odometry, rec.truth_surface, rec.point_times);
     write_points_ply(dir / "truth_seen.ply", rec.truth_seen);
     write_points_ply(dir / "truth_ground.ply", rec.truth_ground);
     if (!rec.imu.empty()) write_imu_text(dir / "imu.txt", rec.imu);
   });
   const double length = path_length(rec.T_world_sensor);
-  std::printf("Simulated %zu %s frames of '%s' (seed %llu) along %.1f m in %.1f s: %s points. Wrote %s: "
-              "velodyne/*.bin, poses.txt (truth), times.txt, odometry.txt (noisy), truth.ply (%s surface "
+  std::printf("Simulated %zu %s %s of '%s' (seed %llu) along %.1f m in %.1f s: %s points. Wrote %s: "
+              "velodyne/*.%s, poses.txt (truth%s), times.txt, odometry.txt (noisy), truth.ply (%s surface "
               "points every %.2f m; its walkable ground in truth_ground.ply), truth_seen.ply (%s noise-free returns).\n",
-              rec.scans.size(), o.spec.sensor.c_str(), o.spec.scene_file.empty() ? o.spec.scene.c_str() : o.spec.scene_file.c_str(),
+              rec.scans.size(), o.spec.sensor.c_str(), o.spec.sweep ? "sweeps" : "frames", o.spec.scene_file.empty() ? o.spec.scene.c_str() : o.spec.scene_file.c_str(),
               static_cast<unsigned long long>(o.spec.seed), length, ms_since(t0) / 1000.0,
-              human_count(static_cast<double>(rec.points)).c_str(), o.out.c_str(),
+              human_count(static_cast<double>(rec.points)).c_str(), o.out.c_str(), o.spec.sweep ? "pcd" : "bin",
+              o.spec.sweep ? " at each sweep's start; each point's time t [s] from it is in the .pcd" : "",
               human_count(static_cast<double>(rec.truth_surface.size())).c_str(), o.spec.truth_spacing,
               human_count(static_cast<double>(rec.truth_seen.size())).c_str());
   if (!rec.imu.empty()) std::printf("imu.txt: %zu IMU samples at %g Hz.\n", rec.imu.size(), o.spec.imu_rate);
@@ -81,6 +82,9 @@ void add_simulate_command(CLI::App& app) {
                   "[Hz] also write imu.txt: an IMU on the sensor (gyro and specific force with noise and a fixed "
                   "seed; the format of hmap slam --imu); 0 = none")
       ->capture_default_str();
+  cmd->add_flag("--sweep", opts->spec.sweep,
+                "vlp16, hdl64: each scan a 0.1 s sweep taken while the sensor moves, written as velodyne/*.pcd with "
+                "each point's time t [s] from the sweep's start (hmap slam deskews them); poses.txt at the starts");
   cmd->add_option("--out,-o", opts->out, "Output folder")->required();
   cmd->callback([opts] { run_simulate(*opts); });
 }

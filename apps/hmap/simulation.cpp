@@ -89,6 +89,9 @@ double recording_bytes(std::size_t points_done, std::size_t done, std::size_t fr
 SimulatedRecording simulate(const SimulationSpec& spec, const std::function<void(std::size_t, std::size_t, std::size_t)>& progress) {
   if (spec.stride == 0) throw Error("--stride must be at least 1");
   if (!(spec.truth_spacing >= 0.005)) throw Error("--truth-spacing must be at least 0.005 m");
+  if (spec.sweep && spec.sensor != "vlp16" && spec.sensor != "hdl64") {
+    throw Error("--sweep needs a spinning lidar (--sensor vlp16 or hdl64), not '" + spec.sensor + "'");
+  }
   sim::Scene scene = [&] {
     if (spec.scene_file.empty()) return sim::make_scene(spec.scene);
     const std::string text = detail::read_file_bytes(spec.scene_file, std::size_t{64} << 20);
@@ -114,10 +117,14 @@ SimulatedRecording simulate(const SimulationSpec& spec, const std::function<void
   if (rec.T_world_sensor.empty()) throw Error("the path of scene '" + spec.scene + "' has no frame");
   const std::size_t n = rec.T_world_sensor.size();
   const double t_end = rec.times.back();
+  const auto T_world_sensor_at = [&path](double t) { return sim::pose_at(path, t); };
   for (std::size_t k = 0; k < n; ++k) {
-    sim::SimulatedScan s = scan_with(sensor, scene, rec.T_world_sensor[k], rec.times[k]);
+    // A sweep starts at the frame's time, so the frame's true pose is the one its times count from.
+    sim::SimulatedScan s = spec.sweep ? std::get<sim::SpinningLidar>(sensor).sweep(scene, T_world_sensor_at, rec.times[k])
+                                      : scan_with(sensor, scene, rec.T_world_sensor[k], rec.times[k]);
     rec.points += s.points_sensor.size();
     rec.scans.push_back(std::move(s.points_sensor));
+    if (spec.sweep) rec.point_times.push_back(std::move(s.time));
     // What the sensor could see of the scene as it stands at the end (moving objects gone).
     const sim::SimulatedScan e = scan_with(exact, scene, rec.T_world_sensor[k], t_end);
     for (const Point3f& p : e.points_sensor) rec.truth_seen.push_back((rec.T_world_sensor[k] * p.cast<double>()).cast<float>());

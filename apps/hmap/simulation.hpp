@@ -23,10 +23,16 @@ struct SimulationSpec {
   double truth_spacing = 0.1;      ///< [m] of the dense surface sample
   double truth_reach = 30.0;       ///< [m] the sample is kept this close to the path
   double imu_rate = 0.0;           ///< [Hz] of a simulated IMU on the sensor (noise: sim::ImuSimParams); 0 = none
+  /// Spinning lidars: each frame is a sweep taken while the sensor moves (SpinningLidar::sweep,
+  /// 0.1 s), its points in the sensor frame of their column's time, with that time; the true pose
+  /// is the one at the sweep's start, the reference of the times. Otherwise the whole frame is
+  /// taken at one instant.
+  bool sweep = false;
 };
 
 struct SimulatedRecording {
   std::vector<PointCloud> scans;   ///< sensor frame
+  std::vector<std::vector<float>> point_times;  ///< [s] per point from the sweep's start, per scan (sweep only)
   PoseList T_world_sensor;         ///< the truth
   std::vector<double> times;       ///< [s]
   PoseList odometry;               ///< integrated noisy odometry

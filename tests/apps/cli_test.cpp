@@ -7,8 +7,10 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <numbers>
 #include <sstream>
 #include <string>
 #include <sys/wait.h>
@@ -16,6 +18,7 @@
 #include "apps/cli_run.hpp"
 #include "common/test_data.hpp"
 #include "hmap/io/hmap_file.hpp"
+#include "hmap/io/pcd.hpp"
 
 namespace hmap {
 namespace {
@@ -472,6 +475,58 @@ TEST_F(CliTest, MapAndSlamWriteTheMcapExportWould) {
   }
   EXPECT_FALSE(std::filesystem::exists(path("n.hmap")));
   EXPECT_FALSE(std::filesystem::exists(path("n")));
+}
+
+}  // namespace
+}  // namespace hmap
+
+namespace hmap {
+namespace {
+
+// simulate --sweep (issue 16): each scan a sweep taken while the car moves, written as
+// velodyne/*.pcd whose field t is each point's time from the sweep's start; slam reads the times
+// through the KITTI folder (times.txt gives the stamps) and deskews. A sensor without a sweep is
+// refused with one line naming the option.
+TEST_F(CliTest, SimulateSweepWritesPerPointTimeThatSlamDeskews) {
+  const CmdResult sim = run("simulate --scene parking --sensor vlp16 --sweep --frames 3 --seed 2 --out " + path("sweep"));
+  ASSERT_EQ(sim.code, 0) << sim.out;
+  EXPECT_FALSE(std::filesystem::exists(dir_ / "sweep" / "velodyne" / "000000.bin"));
+  for (const char* f : {"poses.txt", "times.txt", "odometry.txt", "velodyne/000002.pcd"}) {
+    EXPECT_TRUE(std::filesystem::exists(dir_ / "sweep" / f)) << f;
+  }
+  constexpr double kPeriod = 0.1;            // [s] SpinningLidarParams::sweep_period
+  constexpr double kColumn = kPeriod / 1800;  // [s] a VLP-16 column (0.2°)
+  for (const char* scan : {"000000.pcd", "000002.pcd"}) {
+    std::vector<float> times;
+    const PointCloud cloud = read_pcd(dir_ / "sweep" / "velodyne" / scan, nullptr, &times);
+    ASSERT_GT(cloud.size(), 10000U) << scan;
+    ASSERT_EQ(times.size(), cloud.size()) << scan;
+    const auto [lo, hi] = std::minmax_element(times.begin(), times.end());
+    EXPECT_GE(*lo, 0.0F);
+    EXPECT_LT(*hi, kPeriod);
+    EXPECT_GT(*hi, 0.95 * kPeriod);  // the whole revolution, not one instant
+    // Column by column, azimuth counter-clockwise from x: the time grows with the azimuth, one
+    // column's time per 0.2° (the directions are exact; the noise is along the beam).
+    double worst = 0.0;
+    for (std::size_t i = 0; i < cloud.size(); ++i) {
+      if (i > 0) {
+        ASSERT_GE(times[i], times[i - 1]) << scan << " point " << i;
+      }
+      double azimuth = std::atan2(static_cast<double>(cloud[i].y()), static_cast<double>(cloud[i].x()));
+      if (azimuth < -1e-6) azimuth += 2.0 * std::numbers::pi;
+      worst = std::max(worst, std::abs(static_cast<double>(times[i]) - azimuth / (2.0 * std::numbers::pi) * kPeriod));
+    }
+    EXPECT_LT(worst, 0.1 * kColumn) << scan;
+  }
+  const CmdResult slam = run("slam --kitti " + path("sweep") + " --out " + path("slam"));
+  ASSERT_EQ(slam.code, 0) << slam.out;
+  EXPECT_NE(slam.out.find("Deskewed: 1 of 3 scans"), std::string::npos) << slam.out;  // from the third scan on without odometry
+
+  const CmdResult bad = run("simulate --scene office --sensor kinect --sweep --frames 2 --out " + path("bad"));
+  EXPECT_EQ(bad.code, 2) << bad.out;
+  EXPECT_EQ(lines(bad.out), 1U) << bad.out;
+  EXPECT_NE(bad.out.find("--sweep"), std::string::npos) << bad.out;
+  EXPECT_FALSE(std::filesystem::exists(path("bad")));
 }
 
 }  // namespace

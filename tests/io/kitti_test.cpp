@@ -148,7 +148,7 @@ TEST_F(KittiTest, TakesFirstScansWhenAsked) {
 TEST_F(KittiTest, RejectsMissingOrEmptyVelodyneFolderAndBadCalib) {
   EXPECT_TRUE(contains(input_error_of([&] { (void)open_kitti_sequence(dir_); }), "velodyne: cannot open"));
   std::filesystem::create_directories(dir_ / "velodyne");
-  EXPECT_TRUE(contains(input_error_of([&] { (void)open_kitti_sequence(dir_); }), "velodyne: no .bin scans"));
+  EXPECT_TRUE(contains(input_error_of([&] { (void)open_kitti_sequence(dir_); }), "velodyne: no .bin (or .pcd) scans"));
   write_sequence(1);
   write("calib.txt", "P0: 1 0 0 0 0 1 0 0 0 0 1 0\nTr: 1 0 0\n");
   EXPECT_TRUE(contains(input_error_of([&] { (void)open_kitti_sequence(dir_); }),

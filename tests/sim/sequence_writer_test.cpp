@@ -5,10 +5,12 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <limits>
 
 #include "common/test_data.hpp"
 #include "hmap/core/error.hpp"
 #include "hmap/io/kitti.hpp"
+#include "hmap/io/pcd.hpp"
 #include "hmap/io/poses.hpp"
 #include "hmap/sim/builtin_scenes.hpp"
 #include "hmap/sim/sensors.hpp"
@@ -70,6 +72,38 @@ TEST_F(SequenceWriter, EmptyCloudAndMismatchedCounts) {
   EXPECT_FALSE(std::filesystem::exists(dir_ / "d" / "odometry.txt"));
   EXPECT_FALSE(std::filesystem::exists(dir_ / "d" / "truth.ply"));
   EXPECT_EQ(open_kitti_sequence(dir_ / "d").scan_paths.size(), 2U);
+}
+
+TEST_F(SequenceWriter, SweepsWithPointTimeAreWrittenAsPcdAndReadBack) {
+  // hmap simulate --sweep: velodyne/*.pcd with the field t, listed by the KITTI reader, the points
+  // and times read back exactly (float in, float out).
+  const Scene scene = make_office_scene();
+  const Trajectory path = diff_drive_path(office_robot_route(), DiffDriveParams{});
+  SpinningLidar lidar(SpinningLidarParams::vlp16());
+  std::vector<PointCloud> frames;
+  std::vector<std::vector<float>> point_times;
+  for (std::size_t i = 0; i < 2; ++i) {
+    SimulatedScan s = lidar.sweep(scene, [&](double t) { return pose_at(path, t); }, path.times[i]);
+    frames.push_back(std::move(s.points_sensor));
+    point_times.push_back(std::move(s.time));
+  }
+  const PoseList poses(path.T_world_sensor.begin(), path.T_world_sensor.begin() + 2);
+  const std::vector<double> times(path.times.begin(), path.times.begin() + 2);
+  write_simulated_sequence(dir_, frames, poses, times, {}, {}, point_times);
+  const KittiSequence sequence = open_kitti_sequence(dir_);
+  ASSERT_EQ(sequence.scan_paths.size(), 2U);
+  EXPECT_EQ(sequence.scan_paths.back().filename(), "000001.pcd");
+  for (std::size_t i = 0; i < 2; ++i) {
+    std::vector<float> t;
+    EXPECT_EQ(read_pcd(sequence.scan_paths[i], nullptr, &t), frames[i]);
+    EXPECT_EQ(t, point_times[i]);
+  }
+  EXPECT_THROW(write_simulated_sequence(dir_ / "e", frames, poses, times, {}, {}, std::span(point_times).first(1)), Error);
+  EXPECT_THROW(write_pcd_with_time(dir_ / "f.pcd", frames[0], std::span(point_times[0]).first(3)), Error);
+  std::vector<float> bad = point_times[0];
+  bad[7] = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_THROW(write_pcd_with_time(dir_ / "g.pcd", frames[0], bad), Error);
+  EXPECT_FALSE(std::filesystem::exists(dir_ / "g.pcd"));
 }
 
 }  // namespace

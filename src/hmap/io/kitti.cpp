@@ -89,12 +89,15 @@ std::vector<std::filesystem::path> list_scans(const std::filesystem::path& velod
   std::filesystem::directory_iterator it(velodyne, ec);
   if (ec) throw InputError(velodyne.string(), "", "cannot open: " + ec.message());
   std::vector<std::filesystem::path> scans;
+  std::vector<std::filesystem::path> pcd;  // scans with per-point time (hmap simulate --sweep)
   for (; it != std::filesystem::directory_iterator(); it.increment(ec)) {
     if (ec) throw InputError(velodyne.string(), "", "cannot list: " + ec.message());
     if (it->path().extension() == ".bin") scans.push_back(it->path());
+    if (it->path().extension() == ".pcd") pcd.push_back(it->path());
   }
+  if (scans.empty()) scans = std::move(pcd);
   std::sort(scans.begin(), scans.end());
-  if (scans.empty()) throw InputError(velodyne.string(), "", "no .bin scans");
+  if (scans.empty()) throw InputError(velodyne.string(), "", "no .bin (or .pcd) scans");
   return scans;
 }
 

@@ -17,10 +17,10 @@ namespace hmap {
 [[nodiscard]] PointCloud read_kitti_bin(const std::filesystem::path& path, CloudReadStats* stats = nullptr);
 
 /// A KITTI sequence folder, listed but not yet read: scans are read one at a time with
-/// read_kitti_bin(sequence.scan_paths[i]).
+/// read_kitti_bin(sequence.scan_paths[i]) (read_cloud for the .pcd of hmap simulate --sweep).
 struct KittiSequence {
   std::filesystem::path dir;
-  std::vector<std::filesystem::path> scan_paths;  ///< dir/velodyne/*.bin, sorted by name
+  std::vector<std::filesystem::path> scan_paths;  ///< dir/velodyne/*.bin (else *.pcd: scans with per-point time), sorted by name
   /// One pose per scan, from dir/poses.txt. With calib.txt's Tr, KITTI's camera-frame poses P are
   /// turned into scanner poses, T_map_scan = Tr⁻¹ · P · Tr, so that the map frame is the first
   /// scan's frame (z up); without Tr the poses are taken to be T_map_scan as they are.

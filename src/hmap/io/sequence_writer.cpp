@@ -35,12 +35,33 @@ void write_kitti_bin(const std::filesystem::path& path, const PointCloud& cloud)
   write_file_atomic(path, bytes);
 }
 
+void write_pcd_with_time(const std::filesystem::path& path, const PointCloud& cloud, std::span<const float> times_s) {
+  if (times_s.size() != cloud.size()) {
+    throw Error("write_pcd_with_time: " + std::to_string(times_s.size()) + " times for " + std::to_string(cloud.size()) +
+                " points");
+  }
+  const std::string n = std::to_string(cloud.size());
+  const std::string header = "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS x y z t\nSIZE 4 4 4 4\n"
+                             "TYPE F F F F\nCOUNT 1 1 1 1\nWIDTH " + n + "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " +
+                             n + "\nDATA binary\n";
+  std::string bytes = header;
+  bytes.resize(header.size() + cloud.size() * 4 * sizeof(float));
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    if (!std::isfinite(times_s[i])) throw Error("write_pcd_with_time: a time is not finite");
+    const std::array<float, 4> record{cloud[i].x(), cloud[i].y(), cloud[i].z(), times_s[i]};
+    std::memcpy(bytes.data() + header.size() + i * sizeof(record), record.data(), sizeof(record));
+  }
+  write_file_atomic(path, bytes);
+}
+
 void write_simulated_sequence(const std::filesystem::path& dir, std::span<const PointCloud> frames,
                               const PoseList& true_poses, std::span<const double> times,
-                              const PoseList& odometry_poses, const PointCloud& truth_points) {
+                              const PoseList& odometry_poses, const PointCloud& truth_points,
+                              std::span<const std::vector<float>> point_times) {
   check_count(true_poses.size(), frames.size(), "true poses");
   check_count(times.size(), frames.size(), "times");
   if (!odometry_poses.empty()) check_count(odometry_poses.size(), frames.size(), "odometry poses");
+  if (!point_times.empty()) check_count(point_times.size(), frames.size(), "lists of point times");
   std::error_code error;
   std::filesystem::create_directories(dir / "velodyne", error);
   if (error) throw Error("cannot create " + (dir / "velodyne").string() + ": " + error.message());
@@ -48,7 +69,11 @@ void write_simulated_sequence(const std::filesystem::path& dir, std::span<const 
   for (std::size_t i = 0; i < frames.size(); ++i) {
     std::string number = std::to_string(i);
     if (number.size() < 6) number.insert(0, 6 - number.size(), '0');
-    write_kitti_bin(dir / "velodyne" / (number + ".bin"), frames[i]);
+    if (point_times.empty()) {
+      write_kitti_bin(dir / "velodyne" / (number + ".bin"), frames[i]);
+    } else {
+      write_pcd_with_time(dir / "velodyne" / (number + ".pcd"), frames[i], point_times[i]);
+    }
   }
   write_poses_kitti(dir / "poses.txt", true_poses);
   write_file_atomic(dir / "times.txt", [&](std::ostream& out) {

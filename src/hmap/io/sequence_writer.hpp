@@ -14,17 +14,26 @@ namespace hmap {
 /// `path` atomically. Throws hmap::Error when the file cannot be written.
 void write_kitti_bin(const std::filesystem::path& path, const PointCloud& cloud);
 
+/// Writes `cloud` with each point's time [s] as a binary PCD (v0.7) with float fields x y z t,
+/// replacing `path` atomically: the field read_pcd takes as per-point time (t in seconds from the
+/// sweep's start, as a Velodyne driver's `time`). Throws hmap::Error when the counts differ, a time
+/// is not finite, or the file cannot be written.
+void write_pcd_with_time(const std::filesystem::path& path, const PointCloud& cloud, std::span<const float> times_s);
+
 /// Writes a sequence folder:
-///   dir/velodyne/NNNNNN.bin  one scan per frame (sensor frame), numbered from 000000
+///   dir/velodyne/NNNNNN.bin  one scan per frame (sensor frame), numbered from 000000; with
+///                            `point_times` (one list per frame, one time per point) NNNNNN.pcd
+///                            with the field t instead (write_pcd_with_time)
 ///   dir/poses.txt            true T_world_sensor per frame, KITTI format (no calib.txt: the poses
 ///                            are scanner poses as they are)
 ///   dir/times.txt            one time [s] per frame
 ///   dir/odometry.txt         odometry poses, KITTI format; skipped when `odometry_poses` is empty
 ///   dir/truth.ply            the dense true surface points; skipped when `truth_points` is empty
-/// Creates `dir` and dir/velodyne. Throws hmap::Error when the counts of frames, poses, times and
-/// (non-empty) odometry differ, or a file cannot be written.
+/// Creates `dir` and dir/velodyne. Throws hmap::Error when the counts of frames, poses, times,
+/// (non-empty) odometry and (non-empty) point times differ, or a file cannot be written.
 void write_simulated_sequence(const std::filesystem::path& dir, std::span<const PointCloud> frames,
                               const PoseList& true_poses, std::span<const double> times,
-                              const PoseList& odometry_poses, const PointCloud& truth_points);
+                              const PoseList& odometry_poses, const PointCloud& truth_points,
+                              std::span<const std::vector<float>> point_times = {});
 
 }  // namespace hmap
