@@ -144,7 +144,7 @@ TEST(Imu, RefusesBadSamples) {
   s[1].gyro.x() = 0.0;
   EXPECT_THROW((void)ImuAttitudeFilter(s, p), Error);  // the parameters are validated
   Params q;
-  q.slam.deskew = 2;
+  q.slam.deskew = 3;
   EXPECT_THROW(validate(q), Error);
   q = Params{};
   q.slam.imu_pitch = 2.0;

@@ -214,8 +214,10 @@ std::vector<ParamRef> param_refs(Params& p) {
                   closed(-0.5 * kPi, 0.5 * kPi)));
   r.push_back(ref("slam.imu_yaw", "rad", "IMU mounting in the sensor frame, yaw of R_sensor_imu", s.imu_yaw,
                   closed(-kPi, kPi)));
-  r.push_back(ref_int("slam.deskew", "-", "1: points with a time are moved to the scan's reference time; 0: off",
-                      s.deskew, closed(0.0, 1.0)));
+  r.push_back(ref_int("slam.deskew", "-",
+                      "points with a time moved to the scan's reference time: 1 with odometry's or an IMU's velocity; "
+                      "2 also from the last two estimates (can oscillate); 0: off",
+                      s.deskew, closed(0.0, 2.0)));
   return r;
 }
 

@@ -77,7 +77,7 @@ SlamStep HmapSlam::process(const ScanInput& input) {
   // Deskewing: the sweep's motion is the body velocity from the last estimate to the guess when
   // one is given (odometry), else that of the last two estimates (the gyro's rate for the rotation
   // when there is an IMU), held over the sweep.
-  if (!input.times.empty() && params_.slam.deskew == 1) {
+  if (!input.times.empty() && params_.slam.deskew >= 1) {
     const auto [lo, hi] = std::minmax_element(input.times.begin(), input.times.end());
     const double sweep = static_cast<double>(*hi) - static_cast<double>(*lo);
     Twist velocity;
@@ -88,7 +88,12 @@ SlamStep HmapSlam::process(const ScanInput& input) {
         velocity = twist_between(T_last_, compose(*guess, given.value_or(last_attitude_)), dt);
         known = true;
       }
-    } else if (scans_ >= 2) {
+    } else if (scans_ >= 2 && (params_.slam.deskew == 2 || imu)) {
+      // The velocity of the last two estimates (the IMU's rate replaces its rotation below). Alone
+      // (deskew = 2) it feeds back: a rate error e skews the scan, the match takes about half of
+      // the skew, e·T/2, into the pose, and the next rate errs by -(e_k - e_k-1)/2 per sweep T:
+      // roots 1/2 and -1 of z² + z/2 - 1/2, an oscillation that does not die out (on the parking
+      // route without odometry the yaw error flipped sign and grew each scan; docs/SLAM.md).
       const double dt = stamp_last_ && stamp_previous_ ? *stamp_last_ - *stamp_previous_ : last_sweep_;
       if (dt > 0.0) {
         velocity = velocity_between(dt);
@@ -281,7 +286,7 @@ SlamStep HmapSlam::process(const ScanInput& input) {
   // The floor normal in the map as this scan sees it, for the next scan's tilt prediction.
   if (floor_sensor) floor_up_ = (step.T_map_sensor.linear() * *floor_sensor).normalized();
   step.mapping = mapper_.integrate(points_sensor, step.T_map_sensor);
-  if (!input.times.empty() && params_.slam.deskew == 1 && !step.deskewed && skewed_.size() == scans_ &&
+  if (!input.times.empty() && params_.slam.deskew >= 1 && !step.deskewed && skewed_.size() == scans_ &&
       skewed_.size() < kMaxSkewedScans) {
     skewed_.push_back({PointCloud(input.points_sensor.begin(), input.points_sensor.end()),
                        std::vector<float>(input.times.begin(), input.times.end()), step.T_map_sensor});
