@@ -23,8 +23,9 @@ from . import _hmap
 from ._hmap import Error, Grid2D, HybridMapper, InputError, Map, Mapper, Params, params_for_scan
 from . import eval, io, slam
 
+# Not "eval": `from hmap import *` would hide the builtin eval(); use hmap.eval.
 __all__ = ["Error", "InputError", "Params", "params_for_scan", "Mapper", "HybridMapper", "Map", "Grid2D", "io",
-           "slam", "eval"]
+           "slam"]
 
 _SECTIONS = sorted({name.split(".", 1)[0] for name in Params.names()})
 

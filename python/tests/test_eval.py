@@ -86,3 +86,9 @@ def test_equals_the_cli_json(tmp_path):
                     assert (math.nan if v2 is None else v2) == pytest.approx(b[k2], rel=1e-12, nan_ok=True), k2
         elif not isinstance(value, str):
             assert (math.nan if value is None else value) == pytest.approx(m[key], rel=1e-12, nan_ok=True), key
+
+
+def test_star_import_keeps_the_builtin_eval():
+    scope = {}
+    exec("from hmap import *", scope)
+    assert "eval" not in scope and hmap.eval.trajectory is not None
