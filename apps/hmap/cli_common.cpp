@@ -33,17 +33,21 @@ void ParamOptions::add_to(CLI::App& app) {
   app.add_option("--max-range", max_range, "Drop points farther than this from the sensor [m]");
 }
 
-Params ParamOptions::resolve(const std::string& fallback) const {
-  return resolve_params(ParamSources{preset.empty() ? fallback : preset, config, overrides, cell, min_range, max_range});
+ParamSources ParamOptions::sources() const {
+  return ParamSources{preset, config, overrides, cell, min_range, max_range, {}};
 }
 
-std::string ParamOptions::preset_for(std::span<const Point3f> first_scan, std::string& chosen) const {
-  chosen.clear();
-  if (!preset.empty()) return preset;
-  std::string why;
-  const std::string name = preset_for_sensor(profile_scan(first_scan), &why);
-  chosen = format("preset %s (%s)", name.c_str(), why.c_str());
-  return name;
+Params ParamOptions::resolve(const std::string& fallback) const {
+  ParamSources s = sources();
+  if (s.preset.empty()) s.preset = fallback;
+  return resolve_params(s);
+}
+
+std::string chosen_summary(const ScanParams& chosen) {
+  std::string text;
+  if (!chosen.preset_reason.empty()) text += format(" preset %s (%s).", chosen.preset.c_str(), chosen.preset_reason.c_str());
+  for (const ChosenDefault& c : chosen.adapted) text += format(" %s = %g (%s).", c.name.c_str(), c.value, c.reason.c_str());
+  return text;
 }
 
 ScanSource ScanSource::open(const std::string& kitti_dir, const std::vector<std::string>& files,

@@ -18,6 +18,7 @@
 #include "hmap/core/error.hpp"
 #include "hmap/core/params.hpp"
 #include "hmap/core/types.hpp"
+#include "hmap/io/config.hpp"
 #include "hmap/io/cloud_stats.hpp"
 
 namespace hmap::cli {
@@ -34,12 +35,15 @@ struct ParamOptions {
   std::optional<double> max_range;
 
   void add_to(CLI::App& app);
+  /// Where the parameters come from; the preset empty when none was named.
+  [[nodiscard]] ParamSources sources() const;
   /// The parameters, from `fallback` where no preset was named.
   [[nodiscard]] Params resolve(const std::string& fallback = "outdoor") const;
-  /// The preset the parameters start from: the named one, else the first scan's choice
-  /// (preset_for_sensor), with a line for the summary in `chosen`.
-  [[nodiscard]] std::string preset_for(std::span<const Point3f> first_scan, std::string& chosen) const;
 };
+
+/// What the first scan chose (resolve_params_for_scan), as sentences for a command's summary:
+/// " preset indoor (...). map.point_distance_threshold = 0.6 (...)."; empty when it chose nothing.
+[[nodiscard]] std::string chosen_summary(const ScanParams& chosen);
 
 /// The sensor inputs beyond scan files, shared by every command that reads scans: RGB-D folders
 /// (7-Scenes, TUM), ROS bags, and the rotation that makes the data's world frame gravity-aligned.

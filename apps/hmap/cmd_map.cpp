@@ -42,16 +42,9 @@ void run_map(const MapOptions& o) {
   PointCloud first;
   if (!src.scans.empty()) {
     first = src.read(0, first_stats);
-    std::string preset_line;
-    const std::string preset_name = o.params.preset_for(first, preset_line);
-    if (!preset_line.empty()) {
-      params = o.params.resolve(preset_name);
-      chosen_text += " " + preset_line + ".";
-    }
-    for (const ChosenDefault& c : adapt_to_sensor(params, hmap::preset(preset_name), profile_scan(first))) {
-      chosen_text += format(" %s = %g (%s).", c.name.c_str(), c.value, c.reason.c_str());
-    }
-    validate(params);
+    const ScanParams chosen = resolve_params_for_scan(o.params.sources(), first);
+    params = chosen.params;
+    chosen_text = chosen_summary(chosen);
   }
   // The hybrid map of section IV by default: the HMAP, the ground patches of Alg. 4 and the 2D
   // grid of eq. (3)-(4), all saved; --hvoxels-only keeps section III alone (faster).

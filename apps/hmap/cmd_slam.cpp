@@ -80,18 +80,16 @@ std::optional<ImuSamples> load_imu(const SlamOptions& o, std::string& from) {
 }
 
 void run_slam(const SlamOptions& o) {
+  ParamSources sources = o.params.sources();
+  if (!o.imu_rpy.empty()) {
+    sources.values = {{"slam.imu_roll", o.imu_rpy[0]}, {"slam.imu_pitch", o.imu_rpy[1]}, {"slam.imu_yaw", o.imu_rpy[2]}};
+  }
   // From the named preset (or outdoor) first, so that a bad value is refused before any work.
-  const auto resolved = [&o](const std::string& preset_name) {
-    Params p = o.params.resolve(preset_name);
-    if (!o.imu_rpy.empty()) {
-      p.slam.imu_roll = o.imu_rpy[0];
-      p.slam.imu_pitch = o.imu_rpy[1];
-      p.slam.imu_yaw = o.imu_rpy[2];
-      validate(p);
-    }
-    return p;
-  };
-  Params params = resolved("outdoor");
+  Params params = [&] {
+    ParamSources named = sources;
+    if (named.preset.empty()) named.preset = "outdoor";
+    return resolve_params(named);
+  }();
   prepare_output_set(o.out, {"poses.txt", "poses_tum.txt", "matches.csv", "map.hmap", "trajectory.png"}, "slam");  // before the work
   if (!o.mcap.empty()) check_mcap_output(o.mcap);
   const ScanSource src = ScanSource::open(o.sensors, o.kitti, o.files, "", o.scans, /*poses_required=*/false);
@@ -103,17 +101,9 @@ void run_slam(const SlamOptions& o) {
   if (!src.scans.empty()) {
     first = src.read(0, read_stats, &first_times);
     // No preset named: the sensor's reach chooses it (a depth camera's 5 m: indoor).
-    std::string preset_line;
-    const std::string preset_name = o.params.preset_for(*first, preset_line);
-    if (!preset_line.empty()) {
-      params = resolved(preset_name);
-      chosen_text += " " + preset_line + ".";
-    }
-    const SensorProfile sensor = profile_scan(*first);
-    for (const ChosenDefault& c : adapt_to_sensor(params, hmap::preset(preset_name), sensor)) {
-      chosen_text += format(" %s = %g (%s).", c.name.c_str(), c.value, c.reason.c_str());
-    }
-    validate(params);
+    const ScanParams chosen = resolve_params_for_scan(sources, *first);
+    params = chosen.params;
+    chosen_text = chosen_summary(chosen);
   }
   // RGB-D folders and bags come with poses (the camera's, or /tf and odometry topics): their z,
   // roll and pitch serve as the attitude unless --attitude-from is given, and with

@@ -1,6 +1,6 @@
 # Type stubs of the pybind11 module _hmap (python/src/hmap_pybind.cpp), for editors and type checkers.
 from os import PathLike
-from typing import Any, Optional, Union
+from typing import Any, Optional, Sequence, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -63,8 +63,36 @@ class HybridMapper:
     @property
     def map(self) -> Map: ...
 
+def params_for_scan(first_scan: npt.NDArray[np.floating], preset: Optional[str] = None, *,
+                    config: Optional[_Path] = None, overrides: Sequence[str] = (),
+                    cell_size: Optional[float] = None, min_range: Optional[float] = None,
+                    max_range: Optional[float] = None) -> dict[str, Any]: ...
+
 class io:
     @staticmethod
     def read_cloud(path: _Path) -> npt.NDArray[np.float32]: ...
     @staticmethod
     def read_poses(path: _Path) -> npt.NDArray[np.float64]: ...
+    @staticmethod
+    def open_kitti(dir: _Path, max_scans: Optional[int] = None) -> dict[str, Any]: ...
+
+class slam:
+    class Slam:
+        def __init__(self, params: Params) -> None: ...
+        def process(self, points: npt.NDArray[np.floating], stamp: Optional[float] = None,
+                    times: Optional[npt.ArrayLike] = None, *, attitude: Optional[npt.ArrayLike] = None,
+                    guess: Optional[npt.ArrayLike] = None, non_finite: str = "raise") -> dict[str, Any]: ...
+        def start_at_height(self, z: float) -> None: ...
+        def predict(self) -> tuple[float, float, float]: ...
+        @property
+        def poses(self) -> npt.NDArray[np.float64]: ...
+        @property
+        def scans(self) -> int: ...
+        @property
+        def map(self) -> Map: ...
+
+class eval:
+    @staticmethod
+    def trajectory(truth: npt.ArrayLike, estimate: npt.ArrayLike, *,
+                   segment_lengths: Optional[Sequence[float]] = None,
+                   start_frame_step: int = 1) -> dict[str, Any]: ...

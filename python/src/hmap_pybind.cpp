@@ -21,12 +21,16 @@
 #include "hmap/core/format.hpp"
 #include "hmap/core/params.hpp"
 #include "hmap/core/pose.hpp"
+#include "hmap/core/sensor_profile.hpp"
+#include "hmap/eval/trajectory_metrics.hpp"
 #include "hmap/io/cloud_reader.hpp"
 #include "hmap/io/config.hpp"
 #include "hmap/io/hmap_file.hpp"
+#include "hmap/io/kitti.hpp"
 #include "hmap/io/poses.hpp"
 #include "hmap/maps/mapper.hpp"
 #include "hmap/occupancy/hybrid_mapper.hpp"
+#include "hmap/slam/hmap_slam.hpp"
 
 namespace py = pybind11;
 
@@ -118,6 +122,45 @@ Pose pose_of(const py::handle& obj, const char* what) {
   }
 }
 
+/// An (N, 4, 4) array (any real dtype) as N rigid poses; `what` names it in messages.
+PoseList poses_of(const py::handle& obj, const char* what) {
+  const auto m = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(obj);
+  if (!m || m.ndim() != 3 || m.shape(1) != 4 || m.shape(2) != 4) {
+    throw py::value_error(format("%s must be an (N, 4, 4) array of poses", what));
+  }
+  const auto r = m.unchecked<3>();
+  PoseList poses;
+  for (py::ssize_t k = 0; k < r.shape(0); ++k) {
+    Eigen::Matrix4d matrix;
+    for (int i = 0; i < 4; ++i)
+      for (int j = 0; j < 4; ++j) matrix(i, j) = r(k, i, j);
+    try {
+      poses.push_back(rigid_pose(matrix));
+    } catch (const Error& e) {
+      throw py::value_error(format("%s[%zd]: %s", what, k, e.what()));
+    }
+  }
+  return poses;
+}
+
+/// Per-point times [s] for `n` points: None gives none; else a 1-D array of n finite numbers.
+std::vector<float> times_of(const py::handle& obj, std::size_t n) {
+  std::vector<float> times;
+  if (obj.is_none()) return times;
+  const auto t = py::array_t<double, py::array::forcecast>::ensure(obj);
+  if (!t || t.ndim() != 1 || static_cast<std::size_t>(t.shape(0)) != n) {
+    throw py::value_error(format("times must be a 1-D array of %zu numbers, one per point", n));
+  }
+  const auto r = t.unchecked<1>();
+  times.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const double v = r(static_cast<py::ssize_t>(i));
+    if (!std::isfinite(v)) throw py::value_error(format("times: element %zu is not finite (%g)", i, v));
+    times[i] = static_cast<float>(v);
+  }
+  return times;
+}
+
 // ---------------------------------------------------------------------------------------------
 // Arrays out
 
@@ -135,6 +178,21 @@ py::array_t<double> poses_array(const PoseList& poses) {
     for (int r = 0; r < 4; ++r)
       for (int c = 0; c < 4; ++c) w(static_cast<py::ssize_t>(k), r, c) = m(r, c);
   }
+  return out;
+}
+
+py::array_t<double> matrix_array(const Pose& T) {
+  py::array_t<double> out({py::ssize_t{4}, py::ssize_t{4}});
+  auto w = out.mutable_unchecked<2>();
+  const Eigen::Matrix4d m = T.matrix();
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) w(r, c) = m(r, c);
+  return out;
+}
+
+py::array_t<double> vector_array(const Eigen::Vector3d& v) {
+  py::array_t<double> out(3);
+  for (int d = 0; d < 3; ++d) out.mutable_at(d) = v[d];
   return out;
 }
 
@@ -161,8 +219,8 @@ struct MapperBox {
   std::mutex mutex;
   std::optional<Mapper> mapper;
   std::optional<HybridMapper> hybrid;
-
-  [[nodiscard]] const HMap& map() const { return hybrid ? hybrid->map() : mapper->map(); }
+  std::optional<slam::HmapSlam> slam;
+  PoseList slam_poses;  ///< the poses SLAM merged its scans at, one per process()
 };
 
 struct PyMapper {
@@ -186,6 +244,9 @@ class Map {
       return f(file_->map, file_->grid ? &*file_->grid : nullptr, std::span<const GroundPatch>(file_->ground));
     }
     const std::scoped_lock lock(live_->mutex);
+    if (live_->slam) {
+      return f(live_->slam->map(), static_cast<const OccupancyGrid*>(nullptr), std::span<const GroundPatch>());
+    }
     if (live_->hybrid) {
       const HybridMapper& h = *live_->hybrid;
       return f(h.map(), &h.grid(), std::span<const GroundPatch>(h.ground_patches()));
@@ -385,6 +446,190 @@ py::dict describe(const std::string& name) {
   return {};
 }
 
+// ---------------------------------------------------------------------------------------------
+// Parameters chosen from a scan, SLAM, trajectory metrics, sequences
+
+py::dict scan_params_dict(const py::handle& first_scan, const std::optional<std::string>& preset_name,
+                          const std::optional<std::filesystem::path>& config, const std::vector<std::string>& overrides,
+                          std::optional<double> cell_size, std::optional<double> min_range,
+                          std::optional<double> max_range) {
+  const py::array arr = checked_points(first_scan, "first_scan");
+  PointCloud storage;
+  const std::span<const Point3f> pts = points_of(arr, storage, NonFinite::kDrop, "first_scan");
+  ParamSources sources{preset_name.value_or(""), config.value_or(std::filesystem::path()), overrides, cell_size,
+                       min_range, max_range, {}};
+  const ScanParams chosen = resolve_params_for_scan(sources, pts);
+  py::list adapted;
+  for (const ChosenDefault& c : chosen.adapted) {
+    py::dict d;
+    d["name"] = c.name;
+    d["value"] = c.value;
+    d["reason"] = c.reason;
+    adapted.append(d);
+  }
+  py::dict d;
+  d["params"] = chosen.params;
+  d["preset"] = chosen.preset;
+  d["preset_reason"] = chosen.preset_reason.empty() ? py::object(py::none()) : py::object(py::str(chosen.preset_reason));
+  d["adapted"] = adapted;
+  return d;
+}
+
+struct PySlam {
+  std::shared_ptr<MapperBox> box;
+};
+
+py::dict slam_step_dict(const slam::SlamStep& step) {
+  const slam::MatchResult& m = step.match;
+  const slam::AttitudeFit& af = step.attitude;
+  py::dict d;
+  d["T_map_sensor"] = matrix_array(step.T_map_sensor);
+  d["guess"] = py::make_tuple(step.guess.x, step.guess.y, step.guess.yaw);
+  d["matched"] = step.matched;
+  d["converged"] = m.converged;
+  d["iterations"] = m.iterations;
+  d["initial_cost"] = m.initial_cost;
+  d["final_cost"] = m.final_cost;
+  d["score"] = m.score;
+  d["prior_cost"] = m.prior_cost;
+  d["hvoxels_used"] = m.hvoxels_used;
+  d["eigenvalues"] = vector_array(m.eigenvalues);
+  d["degenerate"] = m.degenerate;
+  d["coarse_search"] = m.coarse_search;
+  d["skipped"] = m.skipped;
+  py::dict fit;
+  fit["ran"] = af.ran;
+  fit["iterations"] = af.iterations;
+  fit["surfaces"] = af.surfaces;
+  fit["rms"] = af.rms;
+  fit["z"] = af.attitude.z;
+  fit["roll"] = af.attitude.roll;
+  fit["pitch"] = af.attitude.pitch;
+  d["attitude_fit"] = fit;
+  py::dict observable;
+  const char* axes[] = {"x", "y", "z", "roll", "pitch", "yaw"};
+  for (std::size_t a = 0; a < 6; ++a) observable[axes[a]] = step.observable[a];
+  d["observable"] = observable;
+  d["planar_passes"] = step.planar_passes;
+  d["deskewed"] = step.deskewed;
+  d["sweep_velocity"] = py::make_tuple(vector_array(step.sweep_velocity.angular), vector_array(step.sweep_velocity.linear));
+  d["imu_used"] = step.imu_used;
+  d["tilt_hypotheses"] = step.tilt_hypotheses;
+  d["tilt_from_floor"] = step.tilt_from_floor;
+  d["mapping"] = scan_stats_dict(step.mapping);
+  return d;
+}
+
+py::dict slam_process(PySlam& self, const py::handle& points, std::optional<double> stamp, const py::handle& times,
+                      const py::handle& attitude, const py::handle& guess, const std::string& non_finite) {
+  const NonFinite mode = non_finite_mode(non_finite);
+  const py::array arr = checked_points(points, "points");
+  PointCloud storage;
+  std::span<const Point3f> pts = points_of(arr, storage, mode, "points");
+  std::vector<float> point_times = times_of(times, pts.size());
+  if (mode == NonFinite::kDrop) {
+    // The matcher reads every point: the non-finite ones (and their times) go before it, as the
+    // CLI's readers drop them.
+    PointCloud finite;
+    std::vector<float> finite_times;
+    for (std::size_t i = 0; i < pts.size(); ++i) {
+      if (!pts[i].allFinite()) continue;
+      finite.push_back(pts[i]);
+      if (!point_times.empty()) finite_times.push_back(point_times[i]);
+    }
+    if (finite.size() != pts.size()) {
+      storage = std::move(finite);
+      point_times = std::move(finite_times);
+      pts = storage;
+    }
+  }
+  if (stamp && !std::isfinite(*stamp)) throw py::value_error(format("stamp must be finite, got %g", *stamp));
+  slam::ScanInput in;
+  in.points_sensor = pts;
+  in.times = point_times;
+  in.stamp = stamp;
+  if (!attitude.is_none()) in.attitude = slam::attitude_of(pose_of(attitude, "attitude"));
+  if (!guess.is_none()) in.guess = slam::planar_of(pose_of(guess, "guess"));
+  MapperBox& box = *self.box;
+  slam::SlamStep step;
+  {
+    py::gil_scoped_release release;  // `arr` keeps the viewed buffer alive meanwhile
+    const std::scoped_lock lock(box.mutex);
+    step = box.slam->process(in);
+    box.slam_poses.push_back(step.T_map_sensor);
+  }
+  return slam_step_dict(step);
+}
+
+py::dict trajectory_dict(const py::handle& truth, const py::handle& estimate, const std::optional<std::vector<double>>& lengths,
+                         int start_frame_step) {
+  const PoseList t = poses_of(truth, "truth");
+  const PoseList e = poses_of(estimate, "estimate");
+  if (t.size() != e.size()) {
+    throw py::value_error(format("estimate holds %zu poses, truth holds %zu", e.size(), t.size()));
+  }
+  TrajectoryEvalParams params;
+  if (lengths) params.segment_lengths = *lengths;
+  params.start_frame_step = start_frame_step;
+  const TrajectoryMetrics m = evaluate_trajectory(t, e, params);
+  py::dict d;
+  d["frames"] = m.frames;
+  d["path_length_m"] = m.path_length_m;
+  d["ate_rmse_m"] = m.ate_rmse_m;
+  d["ate_mean_m"] = m.ate_mean_m;
+  d["ate_median_m"] = m.ate_median_m;
+  d["ate_max_m"] = m.ate_max_m;
+  d["ate_rmse_aligned_m"] = m.ate_rmse_aligned_m;
+  d["ate_mean_aligned_m"] = m.ate_mean_aligned_m;
+  d["ate_median_aligned_m"] = m.ate_median_aligned_m;
+  d["ate_max_aligned_m"] = m.ate_max_aligned_m;
+  d["T_truth_estimate"] = matrix_array(m.T_truth_estimate);
+  d["rpe_frame_trans_rmse_m"] = m.rpe_frame_trans_rmse_m;
+  d["rpe_frame_rot_rmse_deg"] = m.rpe_frame_rot_rmse_deg;
+  d["rpe_trans_pct"] = m.rpe_trans_pct;
+  d["rpe_rot_deg_per_m"] = m.rpe_rot_deg_per_m;
+  d["rpe_segments"] = m.rpe_segments;
+  d["segment_lengths"] = m.segment_length_source == SegmentLengthSource::kFractionOfPath ? "fraction_of_path" : "kitti";
+  d["segment_lengths_m"] = m.segment_lengths_m;
+  py::list per_length;
+  for (const auto& l : m.per_length) {
+    py::dict p;
+    p["length_m"] = l.length_m;
+    p["segments"] = l.segments;
+    p["trans_pct"] = l.trans_pct;
+    p["rot_deg_per_m"] = l.rot_deg_per_m;
+    per_length.append(p);
+  }
+  d["per_length"] = per_length;
+  return d;
+}
+
+py::dict kitti_dict(const std::filesystem::path& dir, std::optional<std::size_t> max_scans) {
+  KittiSequenceOptions options;
+  if (max_scans && *max_scans > 0) options.max_scans = max_scans;
+  const KittiSequence seq = open_kitti_sequence(dir, options);
+  std::vector<std::string> paths;
+  for (const auto& p : seq.scan_paths) paths.push_back(p.string());
+  if (max_scans && *max_scans > 0 && paths.size() > *max_scans) paths.resize(*max_scans);
+  py::dict d;
+  d["scans"] = paths;
+  if (seq.T_map_scan) {
+    PoseList poses = *seq.T_map_scan;
+    poses.resize(std::min(poses.size(), paths.size()));
+    d["T_map_scan"] = poses_array(poses);
+  } else {
+    d["T_map_scan"] = py::none();
+  }
+  d["T_cam_velo"] = seq.T_cam_velo ? py::object(matrix_array(*seq.T_cam_velo)) : py::object(py::none());
+  if (seq.times.empty()) {
+    d["times"] = py::none();
+  } else {
+    std::vector<double> times(seq.times.begin(), seq.times.begin() + static_cast<std::ptrdiff_t>(std::min(seq.times.size(), paths.size())));
+    d["times"] = py::array_t<double>(static_cast<py::ssize_t>(times.size()), times.data());
+  }
+  return d;
+}
+
 }  // namespace
 
 PYBIND11_MODULE(_hmap, m) {
@@ -504,6 +749,66 @@ PYBIND11_MODULE(_hmap, m) {
       .def_property_readonly("map", [](const PyHybridMapper& self) { return Map(self.box); },
                              "The map with its grid and ground patches, live: later scans show in it.");
 
+  m.def("params_for_scan", &scan_params_dict, py::arg("first_scan"), py::arg("preset") = py::none(), py::kw_only(),
+        py::arg("config") = py::none(), py::arg("overrides") = std::vector<std::string>(),
+        py::arg("cell_size") = py::none(), py::arg("min_range") = py::none(), py::arg("max_range") = py::none(),
+        "The parameters `hmap map` and `hmap slam` choose for a run whose first scan is `first_scan` ((N, 3)): "
+        "the preset (named, or indoor when 95 % of the scan lies within 5 m), then the YAML `config`, the "
+        "'name=value' `overrides`, cell_size / min_range / max_range (--cell, --min-range, --max-range), then the "
+        "height gap from a spinning LiDAR's ring spacing. Returns {'params': Params, 'preset': str, "
+        "'preset_reason': str or None (None when named), 'adapted': [{'name', 'value', 'reason'}]}.");
+
+  py::module_ slam_module = m.def_submodule("slam", "SLAM on the HMAP (section IV-C)");
+  py::class_<PySlam>(slam_module, "Slam",
+      "Scan-to-map SLAM on the HMAP: each scan is matched against the map by Gauss-Newton over (x, y, yaw), z, "
+      "roll and pitch fitted to the map's horizontal surfaces, then merged at the estimate. The first scan "
+      "defines the map frame. Use hmap.params_for_scan(first_scan) for the parameters `hmap slam` runs with.")
+      .def(py::init([](const Params& p) {
+        auto box = std::make_shared<MapperBox>();
+        box->slam.emplace(p);
+        return PySlam{box};
+      }), py::arg("params"))
+      .def("process", &slam_process, py::arg("points"), py::arg("stamp") = py::none(), py::arg("times") = py::none(),
+           py::kw_only(), py::arg("attitude") = py::none(), py::arg("guess") = py::none(),
+           py::arg("non_finite") = "raise",
+           "Matches one scan against the map and merges it at the estimate. points: (N, 3) float32 or float64 in "
+           "the sensor frame; stamp: the scan's time [s] (None: the sweep's span is the scan period); times: (N,) "
+           "per-point times [s] from the scan's reference time, for deskewing (slam.deskew); attitude: a 4x4 pose "
+           "whose z, roll and pitch are taken as they are (reference poses, an IMU); guess: a 4x4 pose whose x, y "
+           "and yaw start the match (odometry; None: constant velocity). Runs without the GIL. Returns the step as "
+           "a dict: T_map_sensor (4x4), matched, converged, iterations, initial_cost, final_cost, score (mean M_H), "
+           "hvoxels_used, eigenvalues, degenerate, coarse_search, skipped, attitude_fit, observable ({'x': bool, "
+           "... 'yaw': bool}), planar_passes, deskewed, sweep_velocity, imu_used, tilt_hypotheses, tilt_from_floor, "
+           "mapping (the map update's figures).")
+      .def("start_at_height", [](PySlam& self, double z) {
+        const std::scoped_lock lock(self.box->mutex);
+        if (self.box->slam->scans() > 0) throw py::value_error("start_at_height must come before the first scan");
+        self.box->slam->start_at_height(z);
+      }, py::arg("z"), "The height [m] the first scan is put at when its attitude is estimated (default 0).")
+      .def("predict", [](const PySlam& self) {
+        const std::scoped_lock lock(self.box->mutex);
+        const slam::PlanarPose p = self.box->slam->predict();
+        return py::make_tuple(p.x, p.y, p.yaw);
+      }, "The constant-velocity guess (x, y, yaw) for the next scan.")
+      .def_property_readonly("poses", [](const PySlam& self) {
+        const std::scoped_lock lock(self.box->mutex);
+        return poses_array(self.box->slam_poses);
+      }, "(K, 4, 4) float64: T_map_sensor of every scan processed, as `hmap slam` writes them to poses.txt.")
+      .def_property_readonly("scans", [](const PySlam& self) {
+        const std::scoped_lock lock(self.box->mutex);
+        return self.box->slam->scans();
+      })
+      .def_property_readonly("map", [](const PySlam& self) { return Map(self.box); },
+                             "The map SLAM builds, live: later scans show in it.");
+
+  py::module_ eval = m.def_submodule("eval", "Accuracy of trajectories");
+  eval.def("trajectory", &trajectory_dict, py::arg("truth"), py::arg("estimate"), py::kw_only(),
+           py::arg("segment_lengths") = py::none(), py::arg("start_frame_step") = 1,
+           "ATE (without and after SE(3) alignment), RPE per frame and KITTI's per-distance drift of `estimate` "
+           "against `truth`, both (N, 4, 4) T_world_frame. The dict holds the keys of `hmap eval traj --json` "
+           "(NaN where it writes null) and ate_median_m, the aligned mean and median, T_truth_estimate, "
+           "segment_lengths_m.");
+
   py::module_ io = m.def_submodule("io", "Readers of point clouds and trajectories");
   io.def("read_cloud", [](const std::filesystem::path& path) {
     PointCloud cloud = [&] { py::gil_scoped_release release; return read_cloud(path); }();
@@ -513,6 +818,9 @@ PYBIND11_MODULE(_hmap, m) {
      "array; non-finite points are dropped, as the CLI drops them.");
   io.def("read_poses", [](const std::filesystem::path& path) { return poses_array(read_poses(path)); }, py::arg("path"),
          "A KITTI or TUM trajectory as an (N, 4, 4) float64 array of T_map_sensor.");
+  io.def("open_kitti", &kitti_dict, py::arg("dir"), py::arg("max_scans") = py::none(),
+         "A KITTI folder listed, not read: {'scans': paths, 'T_map_scan': (N, 4, 4) or None (poses.txt turned into "
+         "scanner poses by calib.txt's Tr), 'T_cam_velo': 4x4 or None, 'times': (N,) or None}.");
 }
 
 }  // namespace hmap::python

@@ -75,3 +75,45 @@ def test_python_map_equals_the_cli_map_byte_for_byte(tmp_path):
         mapper.integrate(hmap.io.read_cloud(scan), poses[k])
     mapper.map.save(tmp_path / "py.hmap")
     assert (tmp_path / "py.hmap").read_bytes() == (tmp_path / "cli.hmap").read_bytes()
+
+
+def write_kitti_folder(root, scans, poses=None, times=None):
+    (root / "velodyne").mkdir(parents=True)
+    for k, pts in enumerate(scans):
+        np.hstack([pts, np.zeros((len(pts), 1))]).astype(np.float32).tofile(root / "velodyne" / f"{k:06d}.bin")
+    if poses is not None:
+        np.savetxt(root / "poses.txt", poses[:, :3, :].reshape(len(poses), 12))
+    if times is not None:
+        np.savetxt(root / "times.txt", times)
+
+
+def test_kitti_sequence_yields_points_poses_and_stamps(tmp_path):
+    scans = [np.array([[1, 2, 3]], dtype=np.float32) * (k + 1) for k in range(3)]
+    poses = np.tile(np.eye(4), (3, 1, 1))
+    poses[:, 0, 3] = [0.0, 1.0, 2.5]
+    write_kitti_folder(tmp_path, scans, poses, [0.0, 0.1, 0.2])
+    got = list(hmap.io.kitti_sequence(tmp_path))
+    assert len(got) == 3
+    for k, (points, pose, stamp) in enumerate(got):
+        np.testing.assert_array_equal(points, scans[k])
+        np.testing.assert_array_equal(pose, poses[k])  # no calib.txt: the poses as they are
+        assert stamp == pytest.approx(0.1 * k)
+    assert len(list(hmap.io.kitti_sequence(tmp_path, max_scans=2))) == 2
+
+
+def test_kitti_sequence_without_poses_and_its_errors(tmp_path):
+    write_kitti_folder(tmp_path / "a", [np.zeros((2, 3))])
+    [(points, pose, stamp)] = hmap.io.kitti_sequence(tmp_path / "a")
+    assert points.shape == (2, 3) and pose is None and stamp is None
+    write_kitti_folder(tmp_path / "b", [np.zeros((2, 3))] * 2, times=[0.0])
+    with pytest.raises(hmap.InputError, match="times.txt"):
+        next(hmap.io.kitti_sequence(tmp_path / "b"))
+    with pytest.raises(hmap.InputError, match="velodyne"):
+        next(hmap.io.kitti_sequence(tmp_path / "missing"))
+
+
+def test_kitti_sequence_reads_the_real_scans():
+    data = require_data("kitti_hdl64_seq16")
+    paths = sorted((data / "velodyne").glob("*.bin"))[:2]
+    for (points, _, _), path in zip(hmap.io.kitti_sequence(data, max_scans=2), paths):
+        np.testing.assert_array_equal(points, hmap.io.read_cloud(path))

@@ -1,8 +1,12 @@
-"""The README's Python example runs as written (on the recorded balm_os0 scans)."""
+"""The README's Python examples run as written (on the recorded balm_os0 and kitti_hdl64_seq16 scans)."""
 
+import os
 import pathlib
 import re
 import runpy
+import subprocess
+
+import pytest
 
 from conftest import REPO, data_dir, require_data
 
@@ -15,7 +19,7 @@ def readme_python_blocks():
 def test_readme_python_example_runs(tmp_path, monkeypatch, capsys):
     require_data("balm_os0")
     blocks = readme_python_blocks()
-    assert len(blocks) == 1
+    assert len(blocks) == 2
     # Written for the repository root, where ../shared/data is; run in a scratch folder instead.
     code = blocks[0].replace("../shared/data", str(data_dir()))
     script = tmp_path / "example.py"
@@ -25,3 +29,19 @@ def test_readme_python_example_runs(tmp_path, monkeypatch, capsys):
     out = capsys.readouterr().out
     assert re.match(r"\d+ \[\(", out) and "Grid2D(" in out, out
     assert (tmp_path / "balm_os0_py.hmap").stat().st_size > 0
+
+
+def test_readme_slam_example_runs(tmp_path, monkeypatch, capsys):
+    data = require_data("kitti_hdl64_seq16")
+    cli = pathlib.Path(os.environ.get("HMAP_BIN", ""))
+    if not cli.is_file():
+        pytest.skip("the hmap tool is not built (HMAP_BIN)")
+    code = readme_python_blocks()[1].replace("../shared/data", str(data_dir()))
+    monkeypatch.chdir(tmp_path)
+    # The CLI run the README has the reader start with.
+    subprocess.run([str(cli), "slam", "--kitti", str(data), "--scans", "5", "--out", "out/slam_k5"], check=True,
+                   capture_output=True)
+    script = tmp_path / "example.py"
+    script.write_text(code)
+    runpy.run_path(str(script), run_name="__main__")
+    assert float(capsys.readouterr().out) < 1e-9

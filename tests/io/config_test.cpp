@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <utility>
 
 #include "hmap/core/params.hpp"
 #include "io/io_test_util.hpp"
@@ -80,6 +81,41 @@ TEST(SetParamTest, SetsAndGetsByNameWithTheOverridesMessages) {
   EXPECT_EQ(message([&] { set_param(p, "map.cell_size", std::nan("")); }),
             "parameter 'map.cell_size' needs a finite number, got 'nan'");
   EXPECT_EQ(p.map.cell_size, 0.2);
+}
+
+/// A room's worth of points: 2000 within 3 m of the sensor, as a depth camera sees.
+PointCloud near_scan() {
+  PointCloud points;
+  for (int i = 0; i < 2000; ++i) {
+    const double a = 0.01 * i;
+    points.emplace_back(static_cast<float>(2.0 * std::cos(a)), static_cast<float>(2.0 * std::sin(a)),
+                        static_cast<float>(-1.0 + 0.001 * i));
+  }
+  return points;
+}
+
+TEST(ResolveParamsForScanTest, NoPresetNamedTheScanChoosesIt) {
+  ParamSources sources;
+  sources.preset = "";
+  sources.cell_size = 0.07;
+  sources.values = {{"slam.imu_roll", 0.25}};
+  const ScanParams chosen = resolve_params_for_scan(sources, near_scan());
+  EXPECT_EQ(chosen.preset, "indoor");
+  EXPECT_FALSE(chosen.preset_reason.empty());
+  EXPECT_EQ(chosen.params.map.max_range, indoor_preset().map.max_range);
+  EXPECT_EQ(chosen.params.map.cell_size, 0.07);  // the named value over the preset's
+  EXPECT_EQ(chosen.params.slam.imu_roll, 0.25);  // `values`, set last
+}
+
+TEST(ResolveParamsForScanTest, ANamedPresetStandsAndSaysNoReason) {
+  ParamSources sources;
+  sources.preset = "outdoor";
+  const ScanParams chosen = resolve_params_for_scan(sources, near_scan());
+  EXPECT_EQ(chosen.preset, "outdoor");
+  EXPECT_TRUE(chosen.preset_reason.empty());
+  EXPECT_EQ(chosen.params.map.max_range, outdoor_preset().map.max_range);
+  sources.values = {{"map.cell_size", -1.0}};
+  EXPECT_THROW((void)resolve_params_for_scan(sources, near_scan()), Error);  // validated
 }
 
 }  // namespace

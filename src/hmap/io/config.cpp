@@ -146,8 +146,21 @@ Params resolve_params(const ParamSources& sources) {
   if (sources.cell_size) p.map.cell_size = *sources.cell_size;
   if (sources.min_range) p.map.min_range = *sources.min_range;
   if (sources.max_range) p.map.max_range = *sources.max_range;
+  for (const auto& [name, value] : sources.values) set_param(p, name, value);
   validate(p);
   return p;
+}
+
+ScanParams resolve_params_for_scan(const ParamSources& sources, std::span<const Point3f> first_scan) {
+  const SensorProfile sensor = profile_scan(first_scan);
+  ScanParams out;
+  ParamSources chosen = sources;
+  if (chosen.preset.empty()) chosen.preset = preset_for_sensor(sensor, &out.preset_reason);
+  out.preset = chosen.preset;
+  out.params = resolve_params(chosen);
+  out.adapted = adapt_to_sensor(out.params, preset(out.preset), sensor);
+  validate(out.params);
+  return out;
 }
 
 std::string params_to_yaml(const Params& params) {
