@@ -174,6 +174,7 @@ void run_slam(const SlamOptions& o) {
 #endif
   Progress progress("slam", n);
   std::size_t deskewed = 0;
+  std::size_t timed = 0;  // scans whose points carry a time
   // From a bag or an RGB-D folder, scan k + 1 is decoded while scan k is matched; the first, read
   // above, is not read again.
   Prefetcher<ReadScan> scans(n, [&](std::size_t k) {
@@ -220,6 +221,7 @@ void run_slam(const SlamOptions& o) {
       return s;
     });
     deskewed += step.deskewed ? 1 : 0;
+    timed += point_times.empty() ? 0 : 1;
     const double ms = ms_since(t0);
     ms_total += ms;
     {
@@ -293,6 +295,11 @@ void run_slam(const SlamOptions& o) {
                      : "estimated from the scans (floor normal + map surfaces)",
       chosen_text.empty() ? "" : " Chosen from the first scan:", chosen_text.c_str(),
       imu ? (" IMU: " + std::to_string(imu_samples->size()) + " samples from " + imu_from + ".").c_str() : "", deskewed, n);
+  if (timed > deskewed && params.slam.deskew == 1 && !odometry && !imu) {
+    std::printf("%zu scans carry a time per point but were not deskewed: no odometry or IMU gives the sweep's velocity "
+                "(--odometry, --imu; --set slam.deskew=2 takes the last two estimates', which can oscillate: docs/SLAM.md).\n",
+                timed);
+  }
   // SLAM keeps no 2D grid: the one export would derive from the map's columns.
   if (!o.mcap.empty()) write_run_mcap(o.mcap, slam.map(), {}, nullptr, estimate);
 #ifdef HMAP_HAVE_VIEW

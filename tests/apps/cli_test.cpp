@@ -518,9 +518,20 @@ TEST_F(CliTest, SimulateSweepWritesPerPointTimeThatSlamDeskews) {
     }
     EXPECT_LT(worst, 0.1 * kColumn) << scan;
   }
+  // Without odometry or an IMU the default leaves the times alone and says why; with odometry every
+  // scan after the first is deskewed (and the first too, once the second gives the velocity: the
+  // map is rebuilt, the count is of scans matched deskewed).
   const CmdResult slam = run("slam --kitti " + path("sweep") + " --out " + path("slam"));
   ASSERT_EQ(slam.code, 0) << slam.out;
-  EXPECT_NE(slam.out.find("Deskewed: 1 of 3 scans"), std::string::npos) << slam.out;  // from the third scan on without odometry
+  EXPECT_NE(slam.out.find("Deskewed: 0 of 3 scans"), std::string::npos) << slam.out;
+  EXPECT_NE(slam.out.find("3 scans carry a time per point but were not deskewed"), std::string::npos) << slam.out;
+  const CmdResult odo = run("slam --kitti " + path("sweep") + " --odometry " + path("sweep/odometry.txt") + " --out " + path("slam_odo"));
+  ASSERT_EQ(odo.code, 0) << odo.out;
+  EXPECT_NE(odo.out.find("Deskewed: 2 of 3 scans"), std::string::npos) << odo.out;
+  EXPECT_EQ(odo.out.find("not deskewed"), std::string::npos) << odo.out;
+  const CmdResult two = run("slam --kitti " + path("sweep") + " --set slam.deskew=2 --out " + path("slam_two"));
+  ASSERT_EQ(two.code, 0) << two.out;
+  EXPECT_NE(two.out.find("Deskewed: 1 of 3 scans"), std::string::npos) << two.out;  // from the third scan on
 
   const CmdResult bad = run("simulate --scene office --sensor kinect --sweep --frames 2 --out " + path("bad"));
   EXPECT_EQ(bad.code, 2) << bad.out;
