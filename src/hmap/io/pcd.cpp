@@ -109,17 +109,14 @@ class PcdReader {
     return value;
   }
 
-  /// VIEWPOINT tx ty tz qw qx qy qz (PCL's sensor_origin_ and sensor_orientation_): applied to the
-  /// points, which then lie in the frame the sensor pose is given in.
   /// Moves the points into the viewpoint's frame. A point finite in the file can leave float's range
   /// there (3e38 shifted or turned): it is dropped and counted as non-finite, with its time.
   void apply_viewpoint(PointCloud& cloud, CloudReadStats& stats) {
-    constexpr double kFloatMax = 3.4028234663852886e38;
     const bool timed = raw_times_.size() == cloud.size() && time_.has_value();
     std::size_t kept = 0;
     for (std::size_t i = 0; i < cloud.size(); ++i) {
       const Eigen::Vector3d p = header_.T_cloud_sensor * cloud[i].cast<double>();
-      if (!(p.array().abs() <= kFloatMax).all()) {  // false for NaN too
+      if (!detail::finite_as_float(p.x(), p.y(), p.z())) {
         ++stats.non_finite_dropped;
         continue;
       }
@@ -131,6 +128,8 @@ class PcdReader {
     if (timed) raw_times_.resize(kept);
   }
 
+  /// VIEWPOINT tx ty tz qw qx qy qz (PCL's sensor_origin_ and sensor_orientation_): applied to the
+  /// points, which then lie in the frame the sensor pose is given in.
   void parse_viewpoint(const std::vector<std::string_view>& tokens, std::size_t line) {
     if (tokens.size() != 8) fail(line_position(line), "VIEWPOINT expects 7 numbers (tx ty tz qw qx qy qz)");
     double v[7];

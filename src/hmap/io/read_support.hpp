@@ -147,10 +147,16 @@ template <typename T>
 /// True when a file written little-endian must be byte-swapped on this machine.
 inline constexpr bool kSwapLittleEndian = std::endian::native == std::endian::big;
 
+/// True when (x, y, z) is finite in single precision (false for NaN and beyond FLT_MAX, where the
+/// float cast is undefined).
+inline bool finite_as_float(double x, double y, double z) {
+  constexpr double kMax = 3.4028234663852886e38;  // FLT_MAX
+  return std::abs(x) <= kMax && std::abs(y) <= kMax && std::abs(z) <= kMax;
+}
+
 /// Appends (x, y, z) when it is finite in single precision; otherwise counts it in `dropped`.
 inline void append_if_finite(PointCloud& cloud, double x, double y, double z, std::size_t& dropped) {
-  constexpr double kMax = 3.4028234663852886e38;  // FLT_MAX: beyond it the float cast is undefined
-  if (std::abs(x) <= kMax && std::abs(y) <= kMax && std::abs(z) <= kMax) {  // false for NaN
+  if (finite_as_float(x, y, z)) {
     cloud.emplace_back(static_cast<float>(x), static_cast<float>(y), static_cast<float>(z));
   } else {
     ++dropped;
