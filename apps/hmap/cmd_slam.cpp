@@ -295,10 +295,8 @@ void run_slam(const SlamOptions& o) {
                      : "estimated from the scans (floor normal + map surfaces)",
       chosen_text.empty() ? "" : " Chosen from the first scan:", chosen_text.c_str(),
       imu ? (" IMU: " + std::to_string(imu_samples->size()) + " samples from " + imu_from + ".").c_str() : "", deskewed, n);
-  if (timed > deskewed && params.slam.deskew == 1 && !odometry && !imu) {
-    std::printf("%zu scans carry a time per point but were not deskewed: no odometry or IMU gives the sweep's velocity "
-                "(--odometry, --imu; --set slam.deskew=2 takes the last two estimates', which can oscillate: docs/SLAM.md).\n",
-                timed);
+  if (timed > 0 && params.slam.deskew == 0) {
+    std::printf("%zu scans carry a time per point but were not deskewed (slam.deskew=0).\n", timed);
   }
   // SLAM keeps no 2D grid: the one export would derive from the map's columns.
   if (!o.mcap.empty()) write_run_mcap(o.mcap, slam.map(), {}, nullptr, estimate);

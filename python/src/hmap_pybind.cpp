@@ -484,6 +484,8 @@ py::dict slam_step_dict(const slam::SlamStep& step) {
   const slam::AttitudeFit& af = step.attitude;
   py::dict d;
   d["T_map_sensor"] = matrix_array(step.T_map_sensor);
+  d["T_map_merged"] = matrix_array(step.T_map_merged);
+  d["merged_at_s"] = step.merged_at_s;
   d["guess"] = py::make_tuple(step.guess.x, step.guess.y, step.guess.yaw);
   d["matched"] = step.matched;
   d["converged"] = m.converged;
@@ -778,7 +780,8 @@ PYBIND11_MODULE(_hmap, m) {
            "per-point times [s] from the scan's reference time, for deskewing (slam.deskew); attitude: a 4x4 pose "
            "whose z, roll and pitch are taken as they are (reference poses, an IMU); guess: a 4x4 pose whose x, y "
            "and yaw start the match (odometry; None: constant velocity). Runs without the GIL. Returns the step as "
-           "a dict: T_map_sensor (4x4), matched, converged, iterations, initial_cost, final_cost, score (mean M_H), "
+           "a dict: T_map_sensor (4x4, at the stamp), T_map_merged (4x4, the pose the scan was merged at, "
+           "merged_at_s [s] after the stamp: the sweep's middle when deskewed by the estimates' velocity), matched, converged, iterations, initial_cost, final_cost, score (mean M_H), "
            "hvoxels_used, eigenvalues, degenerate, coarse_search, skipped, attitude_fit, observable ({'x': bool, "
            "... 'yaw': bool}), planar_passes, deskewed, sweep_velocity, imu_used, tilt_hypotheses, tilt_from_floor, "
            "mapping (the map update's figures).")

@@ -518,20 +518,27 @@ TEST_F(CliTest, SimulateSweepWritesPerPointTimeThatSlamDeskews) {
     }
     EXPECT_LT(worst, 0.1 * kColumn) << scan;
   }
-  // Without odometry or an IMU the default leaves the times alone and says why; with odometry every
-  // scan after the first is deskewed (and the first too, once the second gives the velocity: the
-  // map is rebuilt, the count is of scans matched deskewed).
+  // Without odometry or an IMU the last two estimates give the velocity, from the third scan on;
+  // with odometry every scan after the first is deskewed (and the first too, once the second gives
+  // the velocity: the map is rebuilt, the count is of scans matched deskewed). slam.deskew=0 says
+  // in one line that the times were left alone.
   const CmdResult slam = run("slam --kitti " + path("sweep") + " --out " + path("slam"));
   ASSERT_EQ(slam.code, 0) << slam.out;
-  EXPECT_NE(slam.out.find("Deskewed: 0 of 3 scans"), std::string::npos) << slam.out;
-  EXPECT_NE(slam.out.find("3 scans carry a time per point but were not deskewed"), std::string::npos) << slam.out;
+  EXPECT_NE(slam.out.find("Deskewed: 1 of 3 scans"), std::string::npos) << slam.out;
+  EXPECT_EQ(slam.out.find("not deskewed"), std::string::npos) << slam.out;
   const CmdResult odo = run("slam --kitti " + path("sweep") + " --odometry " + path("sweep/odometry.txt") + " --out " + path("slam_odo"));
   ASSERT_EQ(odo.code, 0) << odo.out;
   EXPECT_NE(odo.out.find("Deskewed: 2 of 3 scans"), std::string::npos) << odo.out;
   EXPECT_EQ(odo.out.find("not deskewed"), std::string::npos) << odo.out;
+  const CmdResult off = run("slam --kitti " + path("sweep") + " --set slam.deskew=0 --out " + path("slam_off"));
+  ASSERT_EQ(off.code, 0) << off.out;
+  EXPECT_NE(off.out.find("Deskewed: 0 of 3 scans"), std::string::npos) << off.out;
+  EXPECT_NE(off.out.find("3 scans carry a time per point but were not deskewed (slam.deskew=0)"), std::string::npos)
+      << off.out;
   const CmdResult two = run("slam --kitti " + path("sweep") + " --set slam.deskew=2 --out " + path("slam_two"));
-  ASSERT_EQ(two.code, 0) << two.out;
-  EXPECT_NE(two.out.find("Deskewed: 1 of 3 scans"), std::string::npos) << two.out;  // from the third scan on
+  EXPECT_EQ(two.code, 2) << two.out;
+  EXPECT_EQ(lines(two.out), 1U) << two.out;
+  EXPECT_NE(two.out.find("slam.deskew"), std::string::npos) << two.out;
 
   const CmdResult bad = run("simulate --scene office --sensor kinect --sweep --frames 2 --out " + path("bad"));
   EXPECT_EQ(bad.code, 2) << bad.out;

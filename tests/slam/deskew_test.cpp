@@ -68,6 +68,16 @@ TEST(Deskew, MatchesTheBruteForceTwinOnAMovingSweep) {
   }
   EXPECT_LT(worst, 1e-4);  // float rounding of the points
   EXPECT_GT(moved, 0.9);   // the last columns moved by almost a metre
+  // To the sweep's middle: where the sensor at 0.05 s sees each point.
+  PointCloud middle;
+  deskew(s.points_sensor, s.time, xi, middle, 0.05);
+  ASSERT_EQ(middle.size(), s.points_sensor.size());
+  double worst_middle = 0.0;
+  for (std::size_t i = 0; i < middle.size(); ++i) {
+    const Eigen::Vector3d ref = pose_at(0.05).inverse() * (pose_at(s.time[i]) * s.points_sensor[i].cast<double>());
+    worst_middle = std::max(worst_middle, (ref - middle[i].cast<double>()).norm());
+  }
+  EXPECT_LT(worst_middle, 1e-4);
   // No motion, no change, bit for bit.
   PointCloud still;
   deskew(s.points_sensor, s.time, Twist{}, still);
@@ -107,6 +117,10 @@ Pose car(double t) { return car_at(10.0, t); }
 struct DriveError {
   double rms_m = 0.0;
   double max_yaw = 0.0;
+  /// The pose each scan was merged at (T_map_merged) against the truth at its time (merged_at_s
+  /// after the stamp): its rms and the largest merged_at_s seen.
+  double merged_rms_m = 0.0;
+  double max_merged_at_s = 0.0;
 };
 
 /// 12 HDL-64 sweeps along car_at(speed), the attitude given. With `odometry` the guess is the true
@@ -128,6 +142,7 @@ DriveError drive(bool with_times, double speed = 10.0, bool odometry = true, std
   const auto pose = [speed](double t) { return car_at(speed, t); };
   DriveError e;
   double sum = 0.0;
+  double merged_sum = 0.0;
   const int n = 12;
   Pose last_est = Pose::Identity();
   for (int k = 0; k < n; ++k) {
@@ -152,14 +167,18 @@ DriveError drive(bool with_times, double speed = 10.0, bool odometry = true, std
       in.guess = planar_of(last_est) * noisy;
     }
     const SlamStep step = slam.process(in);
-    // Without odometry the velocity comes from the estimates only when asked (deskew = 2).
-    EXPECT_EQ(step.deskewed, with_times && (odometry ? k >= 1 : deskew_mode == 2 && k >= 2)) << k;
+    // Without odometry the velocity comes from the last two estimates, from the third scan on.
+    EXPECT_EQ(step.deskewed, with_times && deskew_mode >= 1 && (odometry ? k >= 1 : k >= 2)) << k;
     last_est = step.T_map_sensor;
     const double d = (step.T_map_sensor.translation() - pose(t).translation()).norm();
     sum += d * d;
+    const double dm = (step.T_map_merged.translation() - pose(t + step.merged_at_s).translation()).norm();
+    merged_sum += dm * dm;
+    e.max_merged_at_s = std::max(e.max_merged_at_s, step.merged_at_s);
     e.max_yaw = std::max(e.max_yaw, std::abs(planar_of(step.T_map_sensor).yaw - planar_of(pose(t)).yaw));
   }
   e.rms_m = std::sqrt(sum / n);
+  e.merged_rms_m = std::sqrt(merged_sum / n);
   return e;
 }
 
@@ -194,19 +213,25 @@ TEST(Deskew, WithoutOdometryTheEstimatesGiveTheVelocity) {
   // on; the first two are then deskewed with it and the map built again from them. Measured: ATE
   // rms 0.027 m and 0.14° with the per-point time, 0.038 m and 0.32° without; when the first two
   // stayed skewed in the map (only the first was rebuilt, and only with odometry), 0.57 m and 5°.
-  // 4 m/s turning 30°/s (0.4 m and 3° within each sweep), no odometry.
-  // slam.deskew = 2 (the default, 1, leaves such scans as they are: below).
-  const DriveError with = drive(true, 4.0, /*odometry=*/false, 7, {}, 2);
-  const DriveError without = drive(false, 4.0, /*odometry=*/false, 7, {}, 2);
+  // 4 m/s turning 30°/s (0.4 m and 3° within each sweep), no odometry, the default slam.deskew.
+  const DriveError with = drive(true, 4.0, /*odometry=*/false, 7);
+  const DriveError without = drive(false, 4.0, /*odometry=*/false, 7);
   std::printf("4 m/s, 30°/s, no odometry: with deskewing ATE rms %.3f m, max yaw error %.2f°; without %.3f m, %.2f°\n",
               with.rms_m, with.max_yaw / kDeg, without.rms_m, without.max_yaw / kDeg);
   EXPECT_LT(with.rms_m, without.rms_m);
   EXPECT_LT(with.max_yaw, without.max_yaw);
-  // At the default no scan is deskewed without odometry or an IMU (drive() asserts it per scan),
-  // and the poses are those of the scans without times, exactly.
-  const DriveError plain = drive(true, 4.0, /*odometry=*/false, 7, {}, 1);
-  EXPECT_EQ(plain.rms_m, without.rms_m);
-  EXPECT_EQ(plain.max_yaw, without.max_yaw);
+  // Deskewed with the estimates' velocity, a scan is moved to its sweep's middle (the times are in
+  // [0, 0.1) s), matched and merged there, and its pose reported at the stamp (the sweep's start):
+  // each is near the truth at its own time. Mixed up, either would be off by the 0.2 m the car
+  // drives in half a sweep.
+  EXPECT_NEAR(with.max_merged_at_s, 0.05, 0.002);
+  EXPECT_LT(with.merged_rms_m, 0.06);
+  EXPECT_LT(with.rms_m, 0.06);
+  EXPECT_EQ(without.max_merged_at_s, 0.0);
+  // slam.deskew = 0: the times are ignored, and the poses are those of the scans without times, exactly.
+  const DriveError off = drive(true, 4.0, /*odometry=*/false, 7, {}, 0);
+  EXPECT_EQ(off.rms_m, without.rms_m);
+  EXPECT_EQ(off.max_yaw, without.max_yaw);
 }
 
 TEST(Deskew, ScansWithoutTimeAreUnchangedBitForBit) {

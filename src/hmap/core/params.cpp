@@ -215,9 +215,9 @@ std::vector<ParamRef> param_refs(Params& p) {
   r.push_back(ref("slam.imu_yaw", "rad", "IMU mounting in the sensor frame, yaw of R_sensor_imu", s.imu_yaw,
                   closed(-kPi, kPi)));
   r.push_back(ref_int("slam.deskew", "-",
-                      "points with a time moved to the scan's reference time: 1 with odometry's or an IMU's velocity; "
-                      "2 also from the last two estimates (can oscillate); 0: off",
-                      s.deskew, closed(0.0, 2.0)));
+                      "1: points with a time moved to one time by constant velocity (odometry's or an IMU's, to "
+                      "the scan's time; else the last two estimates', to the sweep's middle); 0: off",
+                      s.deskew, closed(0.0, 1.0)));
   return r;
 }
 

@@ -121,10 +121,10 @@ struct SlamParams {
   double imu_pitch = 0.0;                  ///< [rad]   mounting in the sensor frame (identity by default)
   double imu_yaw = 0.0;                    ///< [rad]
   // Per-point time (slam/deskew.hpp).
-  int deskew = 1;                          ///< [-] points carrying a time are moved to the scan's reference
-                                           ///< time by constant velocity: 1 when odometry or an IMU gives the
-                                           ///< velocity; 2 also from the last two estimates (without either;
-                                           ///< can oscillate: docs/SLAM.md); 0: off
+  int deskew = 1;                          ///< [-] 1: points carrying a time are moved to one time by constant
+                                           ///< velocity: odometry's (or an IMU's) to the scan's reference time,
+                                           ///< else the last two estimates' to the sweep's middle (docs/SLAM.md);
+                                           ///< 0: off
 };
 
 /// All parameters together.

@@ -46,7 +46,7 @@ Twist twist_between(const Pose& T_a, const Pose& T_b, double dt) {
 }
 
 void deskew(std::span<const Point3f> points_sensor, std::span<const float> times_s, const Twist& velocity,
-            PointCloud& points_out) {
+            PointCloud& points_out, double reference_s) {
   if (points_sensor.size() != times_s.size()) {
     throw Error("deskew: " + std::to_string(points_sensor.size()) + " points but " + std::to_string(times_s.size()) +
                 " times");
@@ -54,7 +54,7 @@ void deskew(std::span<const Point3f> points_sensor, std::span<const float> times
   points_out.resize(points_sensor.size());
   // Exp(τ·ξ) per point: the rotation by Rodrigues on the fly (no table: times are arbitrary).
   for (std::size_t i = 0; i < points_sensor.size(); ++i) {
-    const Pose T = exp_twist(velocity, static_cast<double>(times_s[i]));
+    const Pose T = exp_twist(velocity, static_cast<double>(times_s[i]) - reference_s);
     points_out[i] = (T * points_sensor[i].cast<double>()).cast<float>();
   }
 }

@@ -22,10 +22,10 @@ struct Twist {
 /// The constant body velocity that moves `T_a` onto `T_b` in `dt` seconds (SE(3) log / dt).
 [[nodiscard]] Twist twist_between(const Pose& T_a, const Pose& T_b, double dt);
 
-/// Moves each point taken at time times_s[i] (seconds from the reference) into the sensor frame at
-/// the reference: p_ref = Exp(τ·ξ)·p_τ. `points_out` is resized to the input (no other allocation).
+/// Moves each point taken at time times_s[i] [s] into the sensor frame at `reference_s` (same clock):
+/// p_ref = Exp((τ - reference)·ξ)·p_τ. `points_out` is resized to the input (no other allocation).
 /// Throws hmap::Error when the two spans differ in size.
 void deskew(std::span<const Point3f> points_sensor, std::span<const float> times_s, const Twist& velocity,
-            PointCloud& points_out);
+            PointCloud& points_out, double reference_s = 0.0);
 
 }  // namespace hmap::slam

@@ -53,7 +53,8 @@ PlanarPose HmapSlam::predict() const {
 
 Twist HmapSlam::velocity() const {
   if (scans_ < 2) return {};
-  const double dt = stamp_last_ && stamp_previous_ ? *stamp_last_ - *stamp_previous_ : last_sweep_;
+  const double dt = (stamp_last_ && stamp_previous_ ? *stamp_last_ - *stamp_previous_ : last_sweep_) +
+                    merged_at_last_ - merged_at_previous_;
   return velocity_between(dt);
 }
 
@@ -77,27 +78,33 @@ SlamStep HmapSlam::process(const ScanInput& input) {
   // Deskewing: the sweep's motion is the body velocity from the last estimate to the guess when
   // one is given (odometry), else that of the last two estimates (the gyro's rate for the rotation
   // when there is an IMU), held over the sweep.
+  Twist velocity;
+  double middle = 0.0;  // the time on the points' clock the scan is moved to, matched and merged at
   if (!input.times.empty() && params_.slam.deskew >= 1) {
     const auto [lo, hi] = std::minmax_element(input.times.begin(), input.times.end());
     const double sweep = static_cast<double>(*hi) - static_cast<double>(*lo);
-    Twist velocity;
     bool known = false;
+    bool from_estimates = false;
     if (guess && scans_ >= 1) {
       const double dt = input.stamp && stamp_last_ ? *input.stamp - *stamp_last_ : sweep;
       if (dt > 0.0) {
         velocity = twist_between(T_last_, compose(*guess, given.value_or(last_attitude_)), dt);
         known = true;
       }
-    } else if (scans_ >= 2 && (params_.slam.deskew == 2 || imu)) {
-      // The velocity of the last two estimates (the IMU's rate replaces its rotation below). Alone
-      // (deskew = 2) it feeds back: a rate error e skews the scan, the match takes about half of
-      // the skew, e·T/2, into the pose, and the next rate errs by -(e_k - e_k-1)/2 per sweep T:
-      // roots 1/2 and -1 of z² + z/2 - 1/2, an oscillation that does not die out (on the parking
-      // route without odometry the yaw error flipped sign and grew each scan; docs/SLAM.md).
-      const double dt = stamp_last_ && stamp_previous_ ? *stamp_last_ - *stamp_previous_ : last_sweep_;
+    } else if (scans_ >= 2) {
+      // The velocity of the last two estimates (the IMU's rate replaces its rotation below). Moved
+      // to the sweep's start, a rate error e would skew the scan, the match take about half of the
+      // skew, e·T/2, into the pose, and the next rate err by -(e_k - e_k-1)/2 per sweep T: roots
+      // 1/2 and -1 of z² + z/2 - 1/2, an oscillation that does not die out (on the parking route
+      // without odometry the yaw error flipped sign and grew each scan; docs/SLAM.md). Moved to
+      // the sweep's middle, the skew e·(τ - T/2) averages out of the matched pose, and the
+      // estimates the next rate comes from are those middle poses: nothing is fed back.
+      const double dt = (stamp_last_ && stamp_previous_ ? *stamp_last_ - *stamp_previous_ : last_sweep_) +
+                        merged_at_last_ - merged_at_previous_;
       if (dt > 0.0) {
         velocity = velocity_between(dt);
         known = true;
+        from_estimates = true;
       }
     }
     if (imu) {
@@ -105,7 +112,20 @@ SlamStep HmapSlam::process(const ScanInput& input) {
       known = true;
     }
     if (known) {
-      deskew(points_sensor, input.times, velocity, deskewed_);
+      if (from_estimates) {
+        middle = 0.5 * (static_cast<double>(*lo) + static_cast<double>(*hi));
+        // The last two estimates moved to the same time in their sweeps (the first time: from the
+        // sweep's start, the first scans' and the map frame's reference, to the middle), so that
+        // the prediction and the next velocity are between the middles.
+        if (merged_at_last_ != middle || merged_at_previous_ != middle) {
+          T_last_ = T_last_ * exp_twist(velocity, middle - merged_at_last_);
+          T_previous_ = T_previous_ * exp_twist(velocity, middle - merged_at_previous_);
+          last_ = planar_of(T_last_);
+          previous_ = planar_of(T_previous_);
+          merged_at_last_ = merged_at_previous_ = middle;
+        }
+      }
+      deskew(points_sensor, input.times, velocity, deskewed_, middle);
       points_sensor = deskewed_;
       step.deskewed = true;
       step.sweep_velocity = velocity;
@@ -114,6 +134,7 @@ SlamStep HmapSlam::process(const ScanInput& input) {
         // second as well) and the map is those scans alone: it is built again from them deskewed
         // with this velocity. Else every later, deskewed scan is matched against a skewed map:
         // 0.3 m off at 10 m/s with odometry; without it, 4 m/s, 0.57 m against 0.04 m undeskewed.
+        // Their poses are for the reference time (the first defines the map frame there).
         PointCloud fixed;
         mapper_ = Mapper(params_);
         for (const SkewedScan& old : skewed_) {
@@ -278,25 +299,37 @@ SlamStep HmapSlam::process(const ScanInput& input) {
     constexpr double kMaxVariance = 1e4;  // (100 m)², (100 rad)²
     for (int k = 0; k < 3; ++k) pose_covariance_(k, k) = std::min(pose_covariance_(k, k), kMaxVariance);
   }
-  step.T_map_sensor = compose(estimate, attitude);
+  step.T_map_merged = compose(estimate, attitude);
+  step.merged_at_s = middle;
+  // The pose at the reference time: the sensor's at the middle moved back along the motion from the
+  // last scan's middle to this one's (the reference time lies between the two: an interpolation,
+  // where the deskewing's velocity, from the two scans before, would extrapolate).
+  step.T_map_sensor = step.T_map_merged;
+  if (middle != 0.0) {
+    const double dt = input.stamp && stamp_last_ ? *input.stamp - *stamp_last_ : last_sweep_;
+    const Twist through = dt > 0.0 ? twist_between(T_last_, step.T_map_merged, dt) : velocity;
+    step.T_map_sensor = step.T_map_merged * exp_twist(through, -middle);
+  }
   if (step.matched && !step.match.skipped) {
     step.observable = {step.match.observable[0], step.match.observable[1], step.attitude.observable[0],
                        step.attitude.observable[1], step.attitude.observable[2], step.match.observable[2]};
   }
   // The floor normal in the map as this scan sees it, for the next scan's tilt prediction.
-  if (floor_sensor) floor_up_ = (step.T_map_sensor.linear() * *floor_sensor).normalized();
-  step.mapping = mapper_.integrate(points_sensor, step.T_map_sensor);
+  if (floor_sensor) floor_up_ = (step.T_map_merged.linear() * *floor_sensor).normalized();
+  step.mapping = mapper_.integrate(points_sensor, step.T_map_merged);
   if (!input.times.empty() && params_.slam.deskew >= 1 && !step.deskewed && skewed_.size() == scans_ &&
       skewed_.size() < kMaxSkewedScans) {
     skewed_.push_back({PointCloud(input.points_sensor.begin(), input.points_sensor.end()),
-                       std::vector<float>(input.times.begin(), input.times.end()), step.T_map_sensor});
+                       std::vector<float>(input.times.begin(), input.times.end()), step.T_map_merged});
   }
   previous_ = scans_ > 0 ? last_ : estimate;
   last_ = estimate;
-  T_previous_ = scans_ > 0 ? T_last_ : step.T_map_sensor;
-  T_last_ = step.T_map_sensor;
+  T_previous_ = scans_ > 0 ? T_last_ : step.T_map_merged;
+  T_last_ = step.T_map_merged;
   stamp_previous_ = stamp_last_;
   stamp_last_ = input.stamp;
+  merged_at_previous_ = scans_ > 0 ? merged_at_last_ : middle;
+  merged_at_last_ = middle;
   last_attitude_ = attitude;
   ++scans_;
   return step;

@@ -39,7 +39,11 @@ struct ScanInput {
 
 /// What one SLAM step did.
 struct SlamStep {
-  Pose T_map_sensor = Pose::Identity();  ///< the pose the scan was merged at
+  Pose T_map_sensor = Pose::Identity();  ///< the sensor's pose at the scan's reference time (its stamp)
+  /// The pose the scan was matched and merged at: T_map_sensor, or, when deskewed with the last
+  /// estimates' velocity, the pose at the sweep's middle (`merged_at_s` on the points' clock).
+  Pose T_map_merged = Pose::Identity();
+  double merged_at_s = 0.0;  ///< [s] the time of T_map_merged on the points' clock (0: the reference)
   PlanarPose guess;                      ///< the prediction matching started from
   bool matched = false;                  ///< false for the first scan (it defines the map frame)
   MatchResult match;
@@ -50,7 +54,7 @@ struct SlamStep {
   /// for a skipped match; z, roll, pitch false when the attitude was given.
   std::array<bool, 6> observable{false, false, false, false, false, false};
   ScanStats mapping;
-  bool deskewed = false;       ///< the points were moved to the reference time
+  bool deskewed = false;       ///< the points were moved to one time (merged_at_s)
   Twist sweep_velocity;        ///< the velocity they were moved with
   bool imu_used = false;       ///< an IMU prior shaped the tilt and the rotation guess
   /// Tilt hypotheses compared against the map (2: the floor's prediction and the last tilt
@@ -83,8 +87,12 @@ class HmapSlam {
   /// scan, and the attitude fit is pulled toward the IMU's gravity (slam.imu_tilt_weight times the
   /// map pairs' tilt information) instead of toward a level floor; where the scan
   /// has too few horizontal surfaces for an axis, the IMU's value stands. With `times` (and
-  /// slam.deskew): the points are first moved to the reference time by the constant body velocity
-  /// of the last two estimates (its rotation from the IMU's rate when there is one).
+  /// slam.deskew): the points are first moved to one time by the constant body velocity: to the
+  /// reference time with odometry's velocity (the guess), to the sweep's middle with the last two
+  /// estimates' (its rotation from the IMU's rate when there is one), so that an error in that
+  /// velocity skews the scan about its middle and does not move the matched pose (fed back, it
+  /// would: docs/SLAM.md). The pose at the reference time is then that at the middle moved back
+  /// by the same velocity.
   SlamStep process(const ScanInput& input);
 
   /// The height the first scan is put at when its attitude is estimated (default 0: the map frame
@@ -115,8 +123,12 @@ class HmapSlam {
   PlanarPose last_;
   PlanarPose previous_;
   Eigen::Matrix3d pose_covariance_ = Eigen::Matrix3d::Zero();  // of last_ (m, m, rad), with odometry
-  Pose T_last_ = Pose::Identity();      // the last two full estimates, for the sweep's velocity
+  // The last two full estimates as merged (at the sweep's middle when deskewed with the
+  // estimates' velocity), for the sweep's velocity.
+  Pose T_last_ = Pose::Identity();
   Pose T_previous_ = Pose::Identity();
+  double merged_at_last_ = 0.0;      // [s] their times after their stamps (SlamStep::merged_at_s)
+  double merged_at_previous_ = 0.0;
   std::optional<double> stamp_last_;
   std::optional<double> stamp_previous_;
   double last_sweep_ = 0.0;             // [s] time span of the last scan's points
