@@ -80,11 +80,11 @@ SlamStep HmapSlam::process(const ScanInput& input) {
   // when there is an IMU), held over the sweep.
   Twist velocity;
   double middle = 0.0;  // the time on the points' clock the scan is moved to, matched and merged at
+  bool from_estimates = false;  // the velocity is the last two estimates' (no guess)
   if (!input.times.empty() && params_.slam.deskew >= 1) {
     const auto [lo, hi] = std::minmax_element(input.times.begin(), input.times.end());
     const double sweep = static_cast<double>(*hi) - static_cast<double>(*lo);
     bool known = false;
-    bool from_estimates = false;
     if (guess && scans_ >= 1) {
       const double dt = input.stamp && stamp_last_ ? *input.stamp - *stamp_last_ : sweep;
       if (dt > 0.0) {
@@ -112,8 +112,11 @@ SlamStep HmapSlam::process(const ScanInput& input) {
       known = true;
     }
     if (known) {
+      // To the sweep's middle when the velocity is the estimates' or odometry's (the scan is matched
+      // there); with the gyro's rate alone, the second scan stays at the sweep's start, where its
+      // prediction is.
+      if (from_estimates || guess) middle = 0.5 * (static_cast<double>(*lo) + static_cast<double>(*hi));
       if (from_estimates) {
-        middle = 0.5 * (static_cast<double>(*lo) + static_cast<double>(*hi));
         // The last two estimates moved to the same time in their sweeps (the first time: from the
         // sweep's start, the first scans' and the map frame's reference, to the middle), so that
         // the prediction and the next velocity are between the middles.
@@ -146,7 +149,13 @@ SlamStep HmapSlam::process(const ScanInput& input) {
     }
     last_sweep_ = sweep;
   }
-  step.guess = guess.value_or(predict());
+  // With odometry's velocity the scan is matched at the sweep's middle too: the guess (for the
+  // stamp) is moved there along that velocity.
+  std::optional<PlanarPose> guess_at = guess;
+  if (guess && middle != 0.0) {
+    guess_at = planar_of(compose(*guess, given.value_or(last_attitude_)) * exp_twist(velocity, middle));
+  }
+  step.guess = guess_at.value_or(predict());
   if (!guess && imu && imu->has_rotation && scans_ > 0) {
     // The gyro's rotation since the last scan turns the yaw guess (the translation stays constant velocity).
     const Eigen::Matrix3d R = T_last_.linear() * imu->R_previous_current;
@@ -254,11 +263,11 @@ SlamStep HmapSlam::process(const ScanInput& input) {
       const double sy = sp.odometry_sigma_rotation +
                         sp.odometry_noise * std::abs(std::remainder(motion.yaw, 2.0 * std::numbers::pi));
       Eigen::Matrix3d J = Eigen::Matrix3d::Identity();  // ∂guess/∂last: a yaw error swings the step
-      J(0, 2) = -(guess->y - last_.y);
-      J(1, 2) = guess->x - last_.x;
+      J(0, 2) = -(guess_at->y - last_.y);
+      J(1, 2) = guess_at->x - last_.x;
       predicted = J * pose_covariance_ * J.transpose();
       predicted.diagonal() += Eigen::Vector3d(st * st, st * st, sy * sy);
-      prior = MotionPrior{*guess, predicted.inverse()};
+      prior = MotionPrior{*guess_at, predicted.inverse()};
     }
     const auto planar_match = [&](CoarseSearch mode) {
       // The scan's HVoxels in the gravity-aligned sensor frame (x = y = yaw = 0), so that eq. (6)
@@ -304,11 +313,14 @@ SlamStep HmapSlam::process(const ScanInput& input) {
   // The pose at the reference time: the sensor's at the middle moved back along the motion from the
   // last scan's middle to this one's (the reference time lies between the two: an interpolation,
   // where the deskewing's velocity, from the two scans before, would extrapolate).
+  // With odometry, back along its velocity (the last estimate it was applied to is for the stamp).
   step.T_map_sensor = step.T_map_merged;
-  if (middle != 0.0) {
+  if (middle != 0.0 && from_estimates) {
     const double dt = input.stamp && stamp_last_ ? *input.stamp - *stamp_last_ : last_sweep_;
     const Twist through = dt > 0.0 ? twist_between(T_last_, step.T_map_merged, dt) : velocity;
     step.T_map_sensor = step.T_map_merged * exp_twist(through, -middle);
+  } else if (middle != 0.0) {
+    step.T_map_sensor = step.T_map_merged * exp_twist(velocity, -middle);
   }
   if (step.matched && !step.match.skipped) {
     step.observable = {step.match.observable[0], step.match.observable[1], step.attitude.observable[0],
@@ -322,14 +334,24 @@ SlamStep HmapSlam::process(const ScanInput& input) {
     skewed_.push_back({PointCloud(input.points_sensor.begin(), input.points_sensor.end()),
                        std::vector<float>(input.times.begin(), input.times.end()), step.T_map_merged});
   }
-  previous_ = scans_ > 0 ? last_ : estimate;
-  last_ = estimate;
-  T_previous_ = scans_ > 0 ? T_last_ : step.T_map_merged;
-  T_last_ = step.T_map_merged;
+  // The estimates kept for the prediction and the velocity: at the middle when that velocity is
+  // theirs, else at the stamp (odometry's guess is applied to the pose at the stamp).
+  const Pose& kept = from_estimates ? step.T_map_merged : step.T_map_sensor;
+  const double kept_at = from_estimates ? middle : 0.0;
+  PlanarPose kept_planar = estimate;  // unwrapped yaw, and bit for bit when nothing was moved
+  if (middle != 0.0 && !from_estimates) {
+    const PlanarPose at_stamp = planar_of(step.T_map_sensor);
+    kept_planar = {at_stamp.x, at_stamp.y,
+                   estimate.yaw + std::remainder(at_stamp.yaw - estimate.yaw, 2.0 * std::numbers::pi)};
+  }
+  previous_ = scans_ > 0 ? last_ : kept_planar;
+  last_ = kept_planar;
+  T_previous_ = scans_ > 0 ? T_last_ : kept;
+  T_last_ = kept;
   stamp_previous_ = stamp_last_;
   stamp_last_ = input.stamp;
-  merged_at_previous_ = scans_ > 0 ? merged_at_last_ : middle;
-  merged_at_last_ = middle;
+  merged_at_previous_ = scans_ > 0 ? merged_at_last_ : kept_at;
+  merged_at_last_ = kept_at;
   last_attitude_ = attitude;
   ++scans_;
   return step;
