@@ -292,11 +292,67 @@ TEST(ScanMatcher, ThinFallbackOnBareGroundKeepsTheGuess) {
                               compose(PlanarPose{}, Attitude{kSensorHeight, 0.0, 0.0}), level);
   ScanMatcher matcher(p);
   const MatchResult r = matcher.match(level, mapper.map(), truth, CoarseSearch::kWhenFailed, std::nullopt,
-                                      /*thin_fallback=*/true);
+                                      /*thin_fallback=*/ThinFallback::kFull);
   // A VLP-16's sparse rings leave few cells known all around: the match is skipped or stays put.
   EXPECT_NEAR(r.pose.x, truth.x, 0.05);
   EXPECT_NEAR(r.pose.y, truth.y, 0.05);
   EXPECT_LT(yaw_error(r.pose.yaw, truth.yaw), 0.2 * kDeg);
+}
+
+TEST(ScanMatcher, ThinHeadingMatchTurnsByTheKerbsAndKeepsTheOdometrysPosition) {
+  // A road between two 12 cm kerbs and nothing taller (the parking side road's empty end), a VLP-16
+  // driving along x at 0.4 m per scan, with odometry 5 cm ahead and 1.5 deg off after a blind stretch
+  // (its prior's sigma grown to 0.03 rad). Fewer than kMinHVoxels tall HVoxels: with
+  // ThinFallback::kNone the odometry's pose is kept as it is; with kHeading the thin HVoxels turn
+  // the yaw back (the kerbs run along x) and x, y stay the odometry's exactly: translated, the
+  // rings the map was laid with would pull the pose back toward the last scan.
+  using sim::Box;
+  using sim::SurfaceKind;
+  sim::SceneBuilder b;
+  b.add("road", sim::make_ground({-80, -3.5}, {80, 3.5}, 0.0));
+  b.add("kerb", {{Box{{0.0, 3.6, -0.04}, {80.0, 0.1, 0.16}, 0.0}, SurfaceKind::kCurb}});
+  b.add("kerb", {{Box{{0.0, -3.6, -0.04}, {80.0, 0.1, 0.16}, 0.0}, SurfaceKind::kCurb}});
+  b.add("walk", sim::make_ground({-80, 3.7}, {80, 12}, 0.12));
+  b.add("walk", sim::make_ground({-80, -12}, {80, -3.7}, 0.12));
+  const sim::Scene scene = b.build();
+  Params p = outdoor_preset();  // 0.25 m cells, 25 m range
+  sim::SpinningLidar lidar(sim::SpinningLidarParams::vlp16());
+  Mapper mapper(p);
+  for (const double x : {-1.2, -0.8, -0.4, 0.0}) {
+    const Pose T = sensor_pose(PlanarPose{x, 0.0, 0.0});
+    mapper.integrate(lidar.scan(scene, T, 0.0).points_sensor, T);
+  }
+  const PlanarPose truth{0.4, 0.0, 0.0};
+  ScanHVoxels level;
+  ScanHVoxelizer(p.map).build(lidar.scan(scene, sensor_pose(truth), 0.1).points_sensor,
+                              compose(PlanarPose{}, Attitude{kSensorHeight, 0.0, 0.0}), level);
+  const PlanarPose odometry{0.45, 0.0, 1.5 * kDeg};
+  const MotionPrior prior = MotionPrior::from_sigmas(odometry, 0.05, 0.03);
+
+  ScanMatcher keep(p);
+  const MatchResult kept = keep.match(level, mapper.map(), odometry, CoarseSearch::kWhenFailed, std::nullopt,
+                                      ThinFallback::kNone, prior);
+  EXPECT_TRUE(kept.skipped);
+  EXPECT_DOUBLE_EQ(kept.pose.yaw, odometry.yaw);
+
+  ScanMatcher heading(p);
+  const MatchResult turned = heading.match(level, mapper.map(), odometry, CoarseSearch::kWhenFailed, std::nullopt,
+                                           ThinFallback::kHeading, prior);
+  EXPECT_FALSE(turned.skipped);
+  EXPECT_GE(turned.hvoxels_used, ScanMatcher::kMinHVoxels);
+  // From 1.5 deg to under 0.5 (0.44 measured; the kerbs are seen within a few metres only, where
+  // the map is known all around, and a 0.4 deg turn moves them 3 cm there, an eighth of a cell).
+  EXPECT_LT(yaw_error(turned.pose.yaw, truth.yaw), 0.5 * kDeg);
+  EXPECT_DOUBLE_EQ(turned.pose.x, odometry.x);
+  EXPECT_DOUBLE_EQ(turned.pose.y, odometry.y);
+  // What the scan told is the yaw alone: x and y are reported unobservable, and the covariance
+  // keeps the odometry's sigma there (0.05 m) while the yaw's shrinks below the prior's 0.03 rad.
+  EXPECT_TRUE(turned.degenerate);
+  EXPECT_FALSE(turned.observable[0]);
+  EXPECT_FALSE(turned.observable[1]);
+  EXPECT_NEAR(std::sqrt(turned.covariance(0, 0)), 0.05, 1e-3);
+  EXPECT_NEAR(std::sqrt(turned.covariance(1, 1)), 0.05, 1e-3);
+  EXPECT_LT(std::sqrt(turned.covariance(2, 2)), 0.5 * 0.03);
 }
 
 /// Vertical posts 2 m tall, 21 points each (every 0.1 m), at the given (x, y) around a sensor 1.8 m
@@ -344,7 +400,7 @@ TEST(ScanMatcher, OdometryPriorHoldsWhatOneMovedPostWouldPull) {
   ScanMatcher matcher(p);
   const MotionPrior still = MotionPrior::from_sigmas(PlanarPose{}, 0.02, 0.005);
   const MatchResult held = matcher.match(scan_level, mapper.map(), PlanarPose{}, CoarseSearch::kAlways, std::nullopt,
-                                         false, still);
+                                         ThinFallback::kNone, still);
   EXPECT_TRUE(held.coarse_search);
   EXPECT_NEAR(held.pose.x, 0.0, 0.05);
   EXPECT_NEAR(held.pose.y, 0.0, 0.02);
@@ -365,7 +421,7 @@ TEST(ScanMatcher, OdometryPriorDoesNotHoldAWellConstrainedMatch) {
   ScanMatcher free_matcher(p);
   const MatchResult r0 = free_matcher.match(s.scan_level, s.map, odometry);
   ScanMatcher matcher(p);
-  const MatchResult r = matcher.match(s.scan_level, s.map, odometry, CoarseSearch::kWhenFailed, std::nullopt, false,
+  const MatchResult r = matcher.match(s.scan_level, s.map, odometry, CoarseSearch::kWhenFailed, std::nullopt, ThinFallback::kNone,
                                       MotionPrior::from_sigmas(odometry, 0.02, 0.005));
   EXPECT_NEAR(r.pose.x, truth.x, 0.02);
   EXPECT_NEAR(r.pose.y, truth.y, 0.02);

@@ -7,6 +7,7 @@
 
 namespace hmap::slam {
 
+
 Attitude attitude_of(const Pose& T) {
   const Eigen::Matrix3d R = T.linear();
   Attitude a;
@@ -276,7 +277,7 @@ SlamStep HmapSlam::process(const ScanInput& input) {
       built = false;
       step.match = matcher_.match(scan_level_, mapper_.map(), estimate, mode,
                                   scans_ >= 2 && !guess ? std::optional<PlanarPose>(last_) : std::nullopt,
-                                  /*thin_fallback=*/!guess, prior);
+                                  guess ? ThinFallback::kHeading : ThinFallback::kFull, prior);
       estimate = step.match.pose;
       ++step.planar_passes;
     };

@@ -216,15 +216,33 @@ Eigen::Vector3d ScanMatcher::solve(const Linearization& lin, bool& degenerate, E
   eigenvalues = eig.eigenvalues();
   const double lmax = eigenvalues(2);
   degenerate = !(lmax > 0.0) || eigenvalues(0) < params_.slam.degeneracy_ratio * lmax;
-  Eigen::Vector3d step_s = Eigen::Vector3d::Zero();
-  if (!(lmax > 0.0)) return step_s;
-  for (int k = 0; k < 3; ++k) {
-    const double l = eigenvalues(k);
-    if (l < params_.slam.degeneracy_ratio * lmax || l <= 0.0) continue;
-    const Eigen::Vector3d u = eig.eigenvectors().col(k);
-    step_s += (u.dot(gs) / l) * u;
+  Eigen::Vector3d step = Eigen::Vector3d::Zero();
+  if (!(lmax > 0.0)) return step;
+  if (basis_.cols() < 3) {
+    // A restricted match (a thin fallback): eq. (7) on the span of the basis, whose columns are
+    // in metres (a yaw column scaled by the RMS radius), solved in its eigenbasis as below.
+    const Eigen::MatrixXd Hr = basis_.transpose() * lin.H * basis_;
+    const Eigen::VectorXd gr = basis_.transpose() * lin.g;
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> reduced(Hr);
+    const double rmax = reduced.eigenvalues().maxCoeff();
+    Eigen::VectorXd alpha = Eigen::VectorXd::Zero(Hr.rows());
+    for (Eigen::Index k = 0; k < Hr.rows(); ++k) {
+      const double l = reduced.eigenvalues()(k);
+      if (!(rmax > 0.0) || l < params_.slam.degeneracy_ratio * rmax || l <= 0.0) continue;
+      const Eigen::VectorXd u = reduced.eigenvectors().col(k);
+      alpha += (u.dot(gr) / l) * u;
+    }
+    step = basis_ * alpha;
+  } else {
+    Eigen::Vector3d step_s = Eigen::Vector3d::Zero();
+    for (int k = 0; k < 3; ++k) {
+      const double l = eigenvalues(k);
+      if (l < params_.slam.degeneracy_ratio * lmax || l <= 0.0) continue;
+      const Eigen::Vector3d u = eig.eigenvectors().col(k);
+      step_s += (u.dot(gs) / l) * u;
+    }
+    step = d.asDiagonal() * step_s;
   }
-  Eigen::Vector3d step = d.asDiagonal() * step_s;
   const double max_step = kMaxStepCells * params_.map.cell_size;
   const double t = std::hypot(step(0), step(1));
   const double r = std::abs(step(2)) * rms_radius_;
@@ -392,10 +410,12 @@ std::vector<PlanarPose> ScanMatcher::coarse_search(const PlanarPose& guess) {
 
 MatchResult ScanMatcher::match(const ScanHVoxels& scan_level, const HMap& map, const PlanarPose& guess,
                                CoarseSearch search, const std::optional<PlanarPose>& alternative,
-                               bool thin_fallback, const std::optional<MotionPrior>& prior) {
+                               ThinFallback thin_fallback, const std::optional<MotionPrior>& prior) {
   prior_.reset();
+  basis_ = Eigen::Matrix3d::Identity();
   select(scan_level, static_cast<float>(params_.slam.min_match_height));
-  if (candidates_.size() < kMinHVoxels && thin_fallback && params_.slam.min_match_height > 0.0) {
+  bool restricted = false;
+  if (candidates_.size() < kMinHVoxels && thin_fallback != ThinFallback::kNone && params_.slam.min_match_height > 0.0) {
     select(scan_level, 0.0F);
     // Only where the map is known all around (at the guess): flat ground is the same everywhere, so
     // its HVoxels tell the pose only by the edge of what the map has seen, and that edge pulled the
@@ -403,6 +423,17 @@ MatchResult ScanMatcher::match(const ScanHVoxels& scan_level, const HMap& map, c
     // Inside, ground rings match anywhere (no gradient: the guess stands) and kerbs and steps match
     // where they are.
     keep_inside_map(map, guess);
+    // Bare ground carries the pattern of the rings that laid it into the map, and a scan's rings
+    // match the last scan's best where that scan was: translated, the thin HVoxels pull the pose
+    // back toward the last one (0.25-0.35 m per scan at the parking side road's empty end, where
+    // the car moved 0.14-0.46 m). The rings are circles about the sensor, so a turn about it
+    // leaves that pattern nearly where it is: the yaw is told by the kerbs. With odometry's guess
+    // (kHeading) only the yaw moves. Without odometry the position must come from somewhere, and
+    // constant velocity along the road was worse than this pull (docs/SLAM.md).
+    if (thin_fallback == ThinFallback::kHeading) {
+      basis_ = Eigen::Vector3d(0.0, 0.0, 1.0 / rms_radius_);
+      restricted = true;
+    }
   }
   if (candidates_.size() < kMinHVoxels) {
     // Too few to hold three degrees of freedom: a kerb or a pedestrian alone snaps the pose by
@@ -432,7 +463,8 @@ MatchResult ScanMatcher::match(const ScanHVoxels& scan_level, const HMap& map, c
   const double ratio = params_.slam.coarse_trigger_ratio;
   const bool failed = search == CoarseSearch::kAlways || !result.converged ||
                       (reference_score_ > 0.0 && result.score < ratio * reference_score_);
-  if (failed && ratio > 0.0) {
+  // A restricted match is not searched: the grid would move the pose where the thin HVoxels may not.
+  if (failed && ratio > 0.0 && !restricted) {
     const int iterations = result.iterations;
     const double initial_cost = result.initial_cost;
     std::vector<PlanarPose> starts = coarse_search(guess);
@@ -448,8 +480,17 @@ MatchResult ScanMatcher::match(const ScanHVoxels& scan_level, const HMap& map, c
     result.coarse_search = true;
   }
   assess_degeneracy(result);
+  Eigen::Matrix3d scan_information = result.hessian;
+  if (restricted) {
+    // What the scan told is its information along the basis only; the rest is the guess's.
+    const Eigen::Matrix3d P = basis_ * (basis_.transpose() * basis_).inverse() * basis_.transpose();
+    scan_information = P * result.hessian * P;
+    result.degenerate = true;
+    result.observable[0] = false;
+    result.observable[1] = false;
+  }
   if (prior_) {
-    const Eigen::Matrix3d information = result.hessian / prior_weight_ + prior_->information;
+    const Eigen::Matrix3d information = scan_information / prior_weight_ + prior_->information;
     result.covariance = information.inverse();
   }
   reference_score_ = reference_score_ > 0.0 ? 0.8 * reference_score_ + 0.2 * result.score : result.score;

@@ -78,6 +78,14 @@ enum class CoarseSearch : std::uint8_t {
   kAlways,      ///< also after a converged match: for a guess with no motion prior (the second scan)
 };
 
+/// What a scan is matched with when fewer than ScanMatcher::kMinHVoxels of its HVoxels are at
+/// least slam.min_match_height tall (a blind stretch: bare ground and kerbs).
+enum class ThinFallback : std::uint8_t {
+  kNone,     ///< nothing: the guess is kept (MatchResult::skipped)
+  kFull,     ///< x, y and yaw from all the HVoxels, floors and kerbs included
+  kHeading,  ///< the yaw from all the HVoxels; x and y keep the guess (odometry's)
+};
+
 /// Matches scans against a map. Holds its buffers, so that matching allocates nothing once warm.
 class ScanMatcher {
  public:
@@ -94,9 +102,11 @@ class ScanMatcher {
   /// gravity-aligned sensor frame (z, roll and pitch applied; x = y = yaw = 0): its cell centres
   /// are the v_x, v_y of eq. (6). Fewer than kMinHVoxels selected: the guess is returned, skipped.
   /// `thin_fallback`: with fewer than kMinHVoxels at least slam.min_match_height tall, match with
-  /// all of them (floors and kerbs included) instead of keeping the guess. For a guess that is only
-  /// constant velocity: blind, it drove straight through a U-turn at the empty end of the parking's
-  /// side road; with odometry keeping the guess is better (docs/SLAM.md). Only the thin HVoxels
+  /// all of them (floors and kerbs included) instead of keeping the guess. kFull, for a guess that
+  /// is only constant velocity: blind, it drove straight through a U-turn at the empty end of the
+  /// parking's side road. kHeading, for odometry's guess: the thin HVoxels turn the yaw only (the
+  /// ground rings pull a translation back toward the last scan, not a turn about the sensor), x and
+  /// y keep the odometry's; no coarse search then (docs/SLAM.md). Only the thin HVoxels
   /// whose cell and its eight neighbours are in the map (at the guess) take part: on bare ground the
   /// edge of what the map has seen was the only "feature" and held the pose back.
   /// With a sparse ring pattern few are left, and the match is then skipped.
@@ -108,7 +118,8 @@ class ScanMatcher {
   [[nodiscard]] MatchResult match(const ScanHVoxels& scan_level, const HMap& map, const PlanarPose& guess,
                                   CoarseSearch search = CoarseSearch::kWhenFailed,
                                   const std::optional<PlanarPose>& alternative = std::nullopt,
-                                  bool thin_fallback = false, const std::optional<MotionPrior>& prior = std::nullopt);
+                                  ThinFallback thin_fallback = ThinFallback::kNone,
+                                  const std::optional<MotionPrior>& prior = std::nullopt);
 
   /// eq. (5) per HVoxel at ξ for the HVoxels selected by the last match() (for tests and tools).
   [[nodiscard]] double cost_at(const PlanarPose& pose);
@@ -153,6 +164,9 @@ class ScanMatcher {
   double reference_cost_ = 0.0;   // running mean of the final costs per HVoxel of the last matches
   std::optional<MotionPrior> prior_;  // of the match under way
   double prior_weight_ = 0.0;         // s² of MotionPrior for it
+  /// The directions ξ may move in, columns in (m, m, rad); all three unless a thin fallback
+  /// restricts them (ThinFallback::kHeading: the yaw alone, scaled by the RMS radius).
+  Eigen::Matrix<double, 3, Eigen::Dynamic> basis_ = Eigen::Matrix3d::Identity();
 };
 
 }  // namespace hmap::slam
