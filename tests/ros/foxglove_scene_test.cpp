@@ -84,10 +84,11 @@ Read read_all(const std::vector<std::uint8_t>& file) {
 }
 
 std::vector<std::uint8_t> write(const HMap& map, const OccupancyGrid* grid, FoxgloveSceneStats* stats,
-                                FoxgloveSceneParams params = {}, const PoseList& trajectory = {}) {
+                                FoxgloveSceneParams params = {}, const PoseList& trajectory = {},
+                                const std::vector<std::uint64_t>& stamps_ns = {}) {
   std::vector<std::uint8_t> file;
-  *stats = write_foxglove_mcap(map, grid, trajectory, [&](std::span<const std::uint8_t> b) { file.insert(file.end(), b.begin(), b.end()); },
-                               params);
+  *stats = write_foxglove_mcap(map, grid, trajectory, stamps_ns,
+                               [&](std::span<const std::uint8_t> b) { file.insert(file.end(), b.begin(), b.end()); }, params);
   return file;
 }
 
