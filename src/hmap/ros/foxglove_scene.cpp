@@ -237,7 +237,11 @@ std::vector<std::uint64_t> stamps_ns_of(std::span<const double> stamps_s, const 
       throw Error(what + ": stamp " + std::to_string(k + 1) + " (" + std::to_string(t) +
                   " s) is not a time an MCAP message can carry (0 to 2^31 s)");
     }
-    out.push_back(static_cast<std::uint64_t>(std::llround(t * 1e9)));
+    // Whole seconds and the fraction apart: t · 1e9 in one double (~1.7e18 for a Unix time) would
+    // round to 256 ns; the fraction is exact in a double and rounds to the nanosecond.
+    const double seconds = std::floor(t);
+    out.push_back(static_cast<std::uint64_t>(seconds) * 1'000'000'000ULL +
+                  static_cast<std::uint64_t>(std::llround((t - seconds) * 1e9)));
   }
   return out;
 }
