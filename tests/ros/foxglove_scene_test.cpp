@@ -372,7 +372,9 @@ TEST(FoxgloveSceneTest, RefusesBadParameters) {
 }
 
 /// The ecosystem's reader (tests/ros2/read_mcap.js: @mcap/core's indexed and streaming readers,
-/// CDR by @foxglove/rosmsg2-serialization, JSON.parse) on the same file.
+/// CDR by @foxglove/rosmsg2-serialization, JSON.parse) on the same file, with stamped poses: the
+/// script checks every stamp inside a message against its log time, the statistics and each
+/// chunk's times and Message Indexes against the messages; here the log times against the stamps.
 TEST(FoxgloveSceneTest, McapCoreReadsAndDecodesEveryMessage) {
   const fs::path scripts = HMAP_ROS2_SCRIPTS_DIR;
   if (std::system("node --version > /dev/null 2>&1") != 0) GTEST_SKIP() << "node is not installed (Debian: nodejs)";
@@ -384,7 +386,9 @@ TEST(FoxgloveSceneTest, McapCoreReadsAndDecodesEveryMessage) {
   params.tile_cells = 8;
   params.mcap.chunk_bytes = 4096;
   FoxgloveSceneStats stats;
-  const auto file = write(m.map, &m.grid, &stats, params, three_poses());
+  const std::vector<std::uint64_t> stamps = {1'700'000'000'000'000'001ULL, 1'700'000'000'250'000'003ULL,
+                                             1'700'000'001'000'000'007ULL};
+  const auto file = write(m.map, &m.grid, &stats, params, three_poses(), stamps);
   const fs::path dir = test::temp_dir("foxglove_scene");
   const fs::path path = dir / "scene.mcap";
   std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char*>(file.data()), static_cast<std::streamsize>(file.size()));
@@ -403,8 +407,22 @@ TEST(FoxgloveSceneTest, McapCoreReadsAndDecodesEveryMessage) {
   EXPECT_EQ(j["foxglove_grid_cells"].get<std::size_t>(), image.cells.size());
   EXPECT_EQ(j["poses"].get<int>(), 3);
   EXPECT_EQ(j["tf"][0], "world->map");
+  EXPECT_EQ(j["tf"][1], "map->sensor");
   EXPECT_EQ(j["streamed_messages"].get<std::uint64_t>(), j["messages"].get<std::uint64_t>());
   EXPECT_EQ(j["statistics_messages"].get<std::uint64_t>(), j["messages"].get<std::uint64_t>());
+  // Log times (decimal strings: past 2^53): /tf at each pose's stamp, the rest at the last.
+  std::vector<std::string> tf_times;
+  for (const std::uint64_t t : stamps) tf_times.push_back(std::to_string(t));
+  EXPECT_EQ(j["log_times"]["/tf"].get<std::vector<std::string>>(), tf_times);
+  for (const auto& [topic, times] : j["log_times"].items()) {
+    if (topic == "/tf") continue;
+    for (const auto& t : times) EXPECT_EQ(t.get<std::string>(), std::to_string(stamps.back())) << topic;
+  }
+  EXPECT_EQ(j["statistics"]["start"].get<std::string>(), std::to_string(stamps.front()));
+  EXPECT_EQ(j["statistics"]["end"].get<std::string>(), std::to_string(stamps.back()));
+  // Stamps inside the messages checked: two per /tf, one per other message (per entity for /hvoxels).
+  EXPECT_EQ(j["stamps_checked"].get<std::uint64_t>(), j["messages"].get<std::uint64_t>() + 3);
+  EXPECT_GT(j["chunks_checked"].get<int>(), 2);
   fs::remove_all(dir);
 }
 
