@@ -369,6 +369,13 @@ TEST(FoxgloveSceneTest, RefusesBadParameters) {
   p = {};
   p.parent_frame = p.frame;
   EXPECT_THROW(write(map, nullptr, &stats, p), Error);
+  p = {};
+  p.sensor_frame = p.frame;
+  EXPECT_THROW(write(map, nullptr, &stats, p), Error);
+  // A stamp past int32 seconds (builtin_interfaces/Time) would wrap in the ROS headers.
+  const PoseList one(1, Pose::Identity());
+  EXPECT_THROW(write(map, nullptr, &stats, {}, one, {2'147'483'647ULL * 1'000'000'000ULL}), Error);
+  EXPECT_NO_THROW(write(map, nullptr, &stats, {}, one, {2'147'483'646ULL * 1'000'000'000ULL}));
 }
 
 /// The ecosystem's reader (tests/ros2/read_mcap.js: @mcap/core's indexed and streaming readers,

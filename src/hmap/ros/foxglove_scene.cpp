@@ -119,6 +119,9 @@ class CdrWriter {
   std::vector<std::uint8_t> bytes_;
 };
 
+// ROS's builtin_interfaces/Time holds int32 seconds: every stamp must fit there too.
+constexpr std::uint64_t kMaxStampNs = 2147483647ULL * 1'000'000'000ULL;
+
 void put_stamp(CdrWriter& w, std::uint64_t ns) {
   w.put(static_cast<std::int32_t>(ns / 1'000'000'000)).put(static_cast<std::uint32_t>(ns % 1'000'000'000));
 }
@@ -221,11 +224,6 @@ struct Cube {
 
 std::int32_t floor_div(std::int32_t a, std::int32_t b) { return a >= 0 ? a / b : -((-a - 1) / b) - 1; }
 
-}  // namespace
-
-namespace {
-// ROS's builtin_interfaces/Time holds int32 seconds: the stamps must fit there too.
-constexpr std::uint64_t kMaxStampNs = 2147483647ULL * 1'000'000'000ULL;
 }  // namespace
 
 std::vector<std::uint64_t> stamps_ns_of(std::span<const double> stamps_s, const std::string& what) {
