@@ -118,8 +118,8 @@ TEST_F(McapOutputTest, SlamStampsEachScansTfWithTimesTxt) {
   EXPECT_EQ(plain.info.end_time, 0U);
 }
 
-// export --trajectory: a TUM file's own times, and a times.txt beside a KITTI file that does not
-// hold one line per pose refused with one line naming it.
+// export --trajectory and map --poses: a TUM file's own times; a times.txt beside a KITTI file that
+// does not hold one line per pose refused with one line naming it.
 TEST_F(McapOutputTest, ExportTakesTumTimesAndRefusesAShortTimesTxt) {
   const CmdResult sim = run("simulate --scene office --sensor kinect --frames 3 --stride 5 --seed 3 --out " + path("seq"));
   ASSERT_EQ(sim.code, 0) << sim.out;
@@ -134,6 +134,13 @@ TEST_F(McapOutputTest, ExportTakesTumTimesAndRefusesAShortTimesTxt) {
   EXPECT_EQ(r.log_times.at("/tf"),
             (std::vector<std::uint64_t>{1'700'000'000'500'000'000ULL, 1'700'000'001'250'000'000ULL, 1'700'000'003'000'000'000ULL}));
   EXPECT_EQ(r.log_times.at("/trajectory"), std::vector<std::uint64_t>{1'700'000'003'000'000'000ULL});
+  // map with scan files and the TUM file as --poses: the scans take its times.
+  std::string scans;
+  for (int k = 0; k < 3; ++k) scans += " " + path("seq/velodyne/00000" + std::to_string(k) + ".bin");
+  const CmdResult m = run("map" + scans + " --poses " + path("tum.txt") + " --preset indoor --out " + path("t.hmap") +
+                          " --mcap " + path("t.mcap"));
+  ASSERT_EQ(m.code, 0) << m.out;
+  EXPECT_EQ(read_recording(path("t.mcap")).log_times.at("/tf"), r.log_times.at("/tf"));
 
   std::filesystem::create_directories(dir_ / "short");
   std::filesystem::copy_file(dir_ / "seq" / "poses.txt", dir_ / "short" / "poses.txt");
