@@ -60,6 +60,7 @@ ScanSource ScanSource::open(const std::string& kitti_dir, const std::vector<std:
     if (max_scans > 0) options.max_scans = max_scans;
     KittiSequence seq = open_kitti_sequence(kitti_dir, options);
     src.scans = seq.scan_paths;
+    src.stamps = std::move(seq.times);
     if (seq.T_map_scan) {
       src.T_map_scan = std::move(seq.T_map_scan);
       src.poses_name = (std::filesystem::path(kitti_dir) / "poses.txt").string();
@@ -69,8 +70,11 @@ ScanSource ScanSource::open(const std::string& kitti_dir, const std::vector<std:
   }
   if (max_scans > 0 && src.scans.size() > max_scans) src.scans.resize(max_scans);
   if (!poses_file.empty()) {
-    src.T_map_scan = read_poses(poses_file);
+    PoseFile file = read_stamped_pose_file(poses_file);
+    src.T_map_scan = std::move(file.poses);
     src.poses_name = poses_file;
+    // The scans' own stamps (a KITTI folder's times.txt) first, else the poses'.
+    if (src.stamps.empty()) src.stamps = std::move(file.times);
   }
   if (src.T_map_scan) {
     auto& poses = *src.T_map_scan;
@@ -80,6 +84,7 @@ ScanSource ScanSource::open(const std::string& kitti_dir, const std::vector<std:
                                                std::to_string(src.scans.size()) + " scans");
     }
     poses.resize(src.scans.size());
+    if (src.stamps.size() > poses.size()) src.stamps.resize(poses.size());
   } else if (poses_required) {
     throw Error("no poses: give --poses FILE (KITTI or TUM format) or a KITTI folder with poses.txt; "
                 "to estimate poses from the scans, use `hmap slam`");

@@ -102,7 +102,7 @@ struct ScanSource {
   [[nodiscard]] PointCloud read(std::size_t index, CloudReadStats& stats, std::vector<float>* times_s = nullptr) const;
 
   std::shared_ptr<const FrameReader> frames;  ///< set for RGB-D folders and bags
-  std::vector<double> stamps;                 ///< [s] per scan when the source has them (bags)
+  std::vector<double> stamps;                 ///< [s] per scan when the source has them (times.txt, TUM poses, bags)
   std::string description;                    ///< e.g. "50 RGB-D frames of DIR (7-Scenes)"
 };
 

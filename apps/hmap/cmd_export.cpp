@@ -150,14 +150,16 @@ void run_export(const ExportOptions& o) {
   if (!o.geotiff.empty()) check_output_file(o.geotiff);
   if (!o.mcap.empty()) check_mcap_output(o.mcap);
   if (!o.trajectory.empty() && o.mcap.empty()) throw Error("--trajectory goes with --mcap (the poses as /trajectory)");
-  const PoseList trajectory = o.trajectory.empty() ? PoseList{} : read_poses(o.trajectory);
+  // Stamps from a TUM file, or from times.txt beside a KITTI file (KITTI's layout); else none.
+  const PoseFile trajectory = o.trajectory.empty() ? PoseFile{} : read_stamped_pose_file(o.trajectory);
+  if (!o.mcap.empty()) check_mcap_stamps(trajectory.times, o.trajectory);
   MapFile file = load_map_file(o.map);
   const HMap& map = file.map;
   // The .bt's free leaves come from the exported grid when the map holds one and its ground.
   const bool bt_free = !o.bt.empty() && file.grid && file.grid->known_cells() > 0 && !file.ground.empty();
   std::optional<GridChoice> chosen;
   if (!o.pgm.empty() || !o.costmap.empty() || !o.geotiff.empty() || !o.mcap.empty() || bt_free) chosen = choose_grid(file, o);
-  if (!o.mcap.empty()) write_map_mcap(o.mcap, map, &chosen->grid, trajectory);
+  if (!o.mcap.empty()) write_map_mcap(o.mcap, map, &chosen->grid, trajectory.poses, trajectory.times);
   if (!o.pgm.empty() || !o.costmap.empty() || !o.geotiff.empty()) {
     const GridChoice& choice = *chosen;
     // Free from one clear ground pass on (p <= K_g), occupied above 0.65: the PGM, its counts and
@@ -228,10 +230,13 @@ void add_export_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--mcap", opts->mcap,
                   "Output MCAP recording for Foxglove (OUT.mcap): /map nav_msgs/OccupancyGrid (the --pgm grid), /grid "
-                  "foxglove.Grid, /tf, /hvoxels foxglove.SceneUpdate cubes coloured by height, /points foxglove.PointCloud");
+                  "foxglove.Grid, /tf, /hvoxels foxglove.SceneUpdate cubes coloured by height, /points foxglove.PointCloud; "
+                  "stamped with --trajectory's times (else 0)");
   cmd->add_option("--trajectory", opts->trajectory,
                   "With --mcap: poses file (KITTI or TUM, in the map frame, as render draws them) written as /trajectory "
-                  "foxglove.PosesInFrame");
+                  "foxglove.PosesInFrame and as one /tf (map -> sensor) per pose at its stamp, for playing the drive back. "
+                  "Stamps: a TUM file's own; for a KITTI file, times.txt in the same folder (one line per pose) when "
+                  "there is one, else all 0. The map's messages take the latest stamp");
   cmd->add_option("--bt", opts->bt, "Output OctoMap binary tree (.bt), for octovis and the octomap tools");
   cmd->add_flag("--points", opts->points, "Write the height-upsampled point cloud instead of boxes");
   cmd->add_option("--z-step", opts->z_step, "Vertical spacing of recovered points [m] (default: the cell size)");

@@ -35,6 +35,7 @@ void run_map(const MapOptions& o) {
   check_output_file(o.out);  // before the work: a missing folder was found after mapping every scan
   if (!o.mcap.empty()) check_mcap_output(o.mcap);
   const ScanSource src = o.open_inputs(/*poses_required=*/true);
+  if (!o.mcap.empty()) check_mcap_stamps(src.stamps, "the scans' stamps");
   // Defaults the first scan can tell, as hmap slam takes them: the preset from the sensor's reach
   // when none is named, the height gap from a spinning LiDAR's ring spacing.
   std::string chosen_text;
@@ -150,9 +151,9 @@ void run_map(const MapOptions& o) {
   if (!o.mcap.empty()) {
     const PoseList used(src.T_map_scan->begin(), src.T_map_scan->begin() + static_cast<std::ptrdiff_t>(src.scans.size()));
     if (o.hvoxels_only) {
-      write_run_mcap(o.mcap, map, {}, nullptr, used);
+      write_run_mcap(o.mcap, map, {}, nullptr, used, src.stamps);
     } else {
-      write_run_mcap(o.mcap, map, hybrid.ground_patches(), &hybrid.grid(), used);
+      write_run_mcap(o.mcap, map, hybrid.ground_patches(), &hybrid.grid(), used, src.stamps);
     }
   }
 #ifdef HMAP_HAVE_VIEW
@@ -174,7 +175,8 @@ void add_map_command(CLI::App& app) {
                 "Build the HMAP alone (section III), without the ground patches and the 2D grid");
   cmd->add_option("--mcap", opts->mcap,
                   "Also write the map as an MCAP recording for Foxglove (OUT.mcap), as hmap export --mcap writes it, "
-                  "with the scans' poses as /trajectory");
+                  "with the scans' poses as /trajectory and one /tf per scan at its stamp (times.txt of a KITTI folder, "
+                  "a TUM --poses file's times or times.txt beside a KITTI one, a bag's; else 0)");
   opts->params.add_to(*cmd);
 #ifdef HMAP_HAVE_VIEW
   opts->view.add_to(*cmd);

@@ -126,6 +126,7 @@ void run_slam(const SlamOptions& o) {
   // Real stamps (times.txt, a bag's) drive the IMU and the deskewing's velocity; without them the
   // scan index stands in for poses_tum.txt and a sweep's span for the scan period.
   const bool stamped = times.size() == n;
+  if (!o.mcap.empty() && stamped) check_mcap_stamps(times, o.kitti.empty() ? "the scans' stamps" : o.kitti + "/times.txt");
   if (!stamped) {
     times.resize(n);
     for (std::size_t k = 0; k < n; ++k) times[k] = static_cast<double>(k);
@@ -299,7 +300,8 @@ void run_slam(const SlamOptions& o) {
     std::printf("%zu scans carry a time per point but were not deskewed (slam.deskew=0).\n", timed);
   }
   // SLAM keeps no 2D grid: the one export would derive from the map's columns.
-  if (!o.mcap.empty()) write_run_mcap(o.mcap, slam.map(), {}, nullptr, estimate);
+  // /tf at the scans' stamps when they are real (times.txt, a bag's), else all at 0.
+  if (!o.mcap.empty()) write_run_mcap(o.mcap, slam.map(), {}, nullptr, estimate, stamped ? std::span<const double>(times) : std::span<const double>{});
 #ifdef HMAP_HAVE_VIEW
   if (o.view.enabled) {
     live.update(slam.map(), {}, nullptr, path, format("done: %zu scans, written to %s", n, o.out.c_str()), true);
@@ -332,7 +334,8 @@ void add_slam_command(CLI::App& app) {
   cmd->add_option("--out,-o", opts->out, "Output folder")->required();
   cmd->add_option("--mcap", opts->mcap,
                   "Also write the map and the estimated poses as an MCAP recording for Foxglove (OUT.mcap), as hmap "
-                  "export --mcap writes it, with the 2D grid derived from the map's columns");
+                  "export --mcap writes it, with the 2D grid derived from the map's columns and one /tf per scan at its "
+                  "stamp (times.txt of a KITTI folder, a bag's; else 0)");
   opts->params.add_to(*cmd);
 #ifdef HMAP_HAVE_VIEW
   opts->view.add_to(*cmd);

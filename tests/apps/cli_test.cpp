@@ -419,8 +419,10 @@ TEST_F(CliTest, ExportsAnMcapForFoxgloveAndRefusesBadInput) {
   const CmdResult r = run("export " + path("m.hmap") + " --mcap " + path("m.mcap") + " --trajectory " + path("poses.txt"));
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_EQ(lines(r.out), 1U) << r.out;
-  // Two HVoxels in two tiles of 64 cells (cell -7 lies in tile -1): two SceneUpdates.
-  EXPECT_NE(r.out.find("/grid 1, /hvoxels 2, /map 1, /points 1, /tf 1, /trajectory 1"), std::string::npos) << r.out;
+  // Two HVoxels in two tiles of 64 cells (cell -7 lies in tile -1): two SceneUpdates; one /tf per
+  // pose, at 0 since a KITTI file without times.txt beside it has no stamps.
+  EXPECT_NE(r.out.find("/grid 1, /hvoxels 2, /map 1, /points 1, /tf 2, /trajectory 1"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("no stamps (all at time 0)"), std::string::npos) << r.out;
   std::ifstream in(path("m.mcap"), std::ios::binary);
   const std::string bytes((std::istreambuf_iterator<char>(in)), {});
   ASSERT_GT(bytes.size(), 16U);
@@ -450,7 +452,8 @@ TEST_F(CliTest, MapAndSlamWriteTheMcapExportWould) {
   ASSERT_EQ(run("simulate --scene office --sensor kinect --frames 6 --stride 5 --seed 3 --out " + path("seq")).code, 0);
   const CmdResult m = run("map --kitti " + path("seq") + " --preset indoor --out " + path("m.hmap") + " --mcap " + path("m.mcap"));
   ASSERT_EQ(m.code, 0) << m.out;
-  EXPECT_NE(m.out.find("/map 1, /points 1, /tf 1, /trajectory 1"), std::string::npos) << m.out;
+  EXPECT_NE(m.out.find("/map 1, /points 1, /tf 6, /trajectory 1"), std::string::npos) << m.out;  // a /tf per scan
+  // export takes the stamps of seq/times.txt beside seq/poses.txt, as map took the folder's.
   const CmdResult e = run("export " + path("m.hmap") + " --mcap " + path("e.mcap") + " --trajectory " + path("seq/poses.txt"));
   ASSERT_EQ(e.code, 0) << e.out;
   const auto bytes = [&](const std::string& name) {
@@ -464,7 +467,7 @@ TEST_F(CliTest, MapAndSlamWriteTheMcapExportWould) {
   ASSERT_EQ(s.code, 0) << s.out;
   // SLAM keeps no grid: /map and /grid come from the columns, as export derives them.
   EXPECT_NE(s.out.find("/grid 1"), std::string::npos) << s.out;
-  EXPECT_NE(s.out.find("/map 1, /points 1, /tf 1, /trajectory 1"), std::string::npos) << s.out;
+  EXPECT_NE(s.out.find("/map 1, /points 1, /tf 6, /trajectory 1"), std::string::npos) << s.out;
   EXPECT_EQ(bytes("s.mcap").substr(0, 8), std::string("\x89MCAP0\r\n", 8));
 
   for (const std::string& cmd : {"map --kitti " + path("seq") + " --out " + path("n.hmap") + " --mcap " + path("n.bag"),

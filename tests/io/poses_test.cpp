@@ -134,6 +134,26 @@ TEST_F(PosesTest, WritersRejectInconsistentInput) {
   EXPECT_TRUE(std::filesystem::is_empty(dir_));  // no temporary file left behind
 }
 
+// Stamps for a KITTI file from times.txt beside it (KITTI's layout), none without it, a TUM
+// file's own (a times.txt beside it ignored), and a times.txt of another count refused.
+TEST_F(PosesTest, StampedPoseFileTakesTimesTxtBesideAKittiFile) {
+  const auto kitti = write("poses.txt", "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 1 0 1 0 0 0 0 1 0\n");
+  EXPECT_TRUE(read_stamped_pose_file(kitti).times.empty());
+  write("times.txt", "# seconds\n1700000000.25\n1700000000.75\n");
+  const PoseFile stamped = read_stamped_pose_file(kitti);
+  EXPECT_EQ(stamped.times, (std::vector<double>{1700000000.25, 1700000000.75}));
+  EXPECT_EQ(stamped.poses.size(), 2U);
+  EXPECT_TRUE(read_pose_file(kitti).times.empty());  // the plain reader reads the one file
+
+  const auto tum = write("traj.tum", "3.5 0 0 0 0 0 0 1\n4.5 1 0 0 0 0 0 1\n");
+  EXPECT_EQ(read_stamped_pose_file(tum).times, (std::vector<double>{3.5, 4.5}));
+
+  write("times.txt", "0.1\n0.2\n0.3\n");
+  const std::string message = input_error_of([&] { (void)read_stamped_pose_file(kitti); });
+  EXPECT_TRUE(contains(message, "times.txt")) << message;
+  EXPECT_TRUE(contains(message, "3 timestamps for the 2 poses")) << message;
+}
+
 TEST(PosesRealData, ReadsBalmPoses) {
   HMAP_REQUIRE_DATA("balm_os0");
   const PoseFile file = read_pose_file(test::data_dir() / "balm_os0" / "poses.txt");

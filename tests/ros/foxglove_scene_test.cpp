@@ -48,7 +48,9 @@ struct SmallMap {
 
 struct Read {
   std::map<std::string, std::vector<std::vector<std::uint8_t>>> by_topic;
+  std::map<std::string, std::vector<std::uint64_t>> log_times;  ///< [ns] per topic, as by_topic
   std::map<std::string, std::string> schema_of;
+  mcap::Info info;
 };
 
 std::vector<std::uint8_t> from_base64(const std::string& text) {
@@ -78,16 +80,20 @@ Read read_all(const std::vector<std::uint8_t>& file) {
     out.schema_of[ch.topic] = reader.info().schemas.at(ch.schema_id).name;
   }
   for (const auto& ref : reader.messages(all)) {
-    out.by_topic[reader.info().channels.at(ref.channel).topic].push_back(reader.read(ref));
+    const std::string& topic = reader.info().channels.at(ref.channel).topic;
+    out.by_topic[topic].push_back(reader.read(ref));
+    out.log_times[topic].push_back(ref.log_time);
   }
+  out.info = reader.info();
   return out;
 }
 
 std::vector<std::uint8_t> write(const HMap& map, const OccupancyGrid* grid, FoxgloveSceneStats* stats,
-                                FoxgloveSceneParams params = {}, const PoseList& trajectory = {}) {
+                                FoxgloveSceneParams params = {}, const PoseList& trajectory = {},
+                                const std::vector<std::uint64_t>& stamps_ns = {}) {
   std::vector<std::uint8_t> file;
-  *stats = write_foxglove_mcap(map, grid, trajectory, [&](std::span<const std::uint8_t> b) { file.insert(file.end(), b.begin(), b.end()); },
-                               params);
+  *stats = write_foxglove_mcap(map, grid, trajectory, stamps_ns,
+                               [&](std::span<const std::uint8_t> b) { file.insert(file.end(), b.begin(), b.end()); }, params);
   return file;
 }
 
@@ -218,6 +224,118 @@ TEST(FoxgloveSceneTest, TheTrajectoryIsOnePosesInFrame) {
   }
 }
 
+/// A JSON message's "timestamp" {sec, nsec} in ns.
+std::uint64_t json_ns(const nlohmann::json& stamp) {
+  return stamp["sec"].get<std::uint64_t>() * 1'000'000'000ULL + stamp["nsec"].get<std::uint64_t>();
+}
+
+// Stamped poses: one /tf per pose at its stamp, header and log time, holding world -> map and
+// map -> sensor at the pose; everything else at the latest stamp (here the first pose's: the
+// stamps need not be sorted); the statistics span them.
+TEST(FoxgloveSceneTest, EachPoseIsATfAtItsStampAndTheMapIsAtTheLatest) {
+  const SmallMap m;
+  const PoseList poses = three_poses();
+  // Unix times in ns, past what a double holds exactly.
+  const std::uint64_t t0 = 1'700'000'000'000'000'001ULL;
+  const std::vector<std::uint64_t> stamps = {t0 + 500'000'007, t0, t0 + 350'000'000};
+  const std::uint64_t latest = stamps[0];
+  FoxgloveSceneParams params;
+  params.tile_cells = 8;
+  params.mcap.chunk_bytes = 4096;  // several chunks
+  FoxgloveSceneStats stats;
+  const Read r = read_all(write(m.map, &m.grid, &stats, params, poses, stamps));
+  EXPECT_GT(r.info.chunks.size(), 2U);
+
+  ASSERT_EQ(r.log_times.at("/tf"), stamps);
+  EXPECT_EQ(stats.messages.at("/tf"), 3U);
+  for (std::size_t k = 0; k < 3; ++k) {
+    // Both transforms' header stamps, read from the CDR as written (int32 sec, uint32 nanosec).
+    const auto& msg = r.by_topic.at("/tf")[k];
+    const std::string src = "/tf", pos = "message " + std::to_string(k);
+    cdr::Reader c(msg, src, pos);
+    ASSERT_EQ(c.u32(), 2U);
+    for (const auto& [parent, child] : {std::pair<std::string, std::string>{"world", "map"}, {"map", "sensor"}}) {
+      const auto sec = static_cast<std::uint64_t>(c.i32());
+      const auto nsec = static_cast<std::uint64_t>(c.u32());
+      EXPECT_EQ(sec * 1'000'000'000ULL + nsec, stamps[k]) << k;
+      EXPECT_EQ(c.string(), parent);
+      EXPECT_EQ(c.string(), child);
+      double v[7];
+      for (double& x : v) x = c.f64();
+      const Pose T = parent == "world" ? Pose::Identity() : poses[k];
+      EXPECT_LT((Eigen::Vector3d(v[0], v[1], v[2]) - T.translation()).norm(), 1e-12) << k;
+      EXPECT_LT(Eigen::Quaterniond(v[6], v[3], v[4], v[5]).angularDistance(Eigen::Quaterniond(T.rotation())), 1e-9) << k;
+    }
+  }
+  for (const char* topic : {"/map", "/grid", "/hvoxels", "/points", "/trajectory"}) {
+    ASSERT_FALSE(r.log_times.at(topic).empty()) << topic;
+    for (const std::uint64_t t : r.log_times.at(topic)) EXPECT_EQ(t, latest) << topic;
+  }
+  // The stamps inside the messages: OccupancyGrid's header and map_load_time, the JSON timestamps.
+  {
+    const std::string src = "/map", pos = "message 0";
+    cdr::Reader c(r.by_topic.at("/map")[0], src, pos);
+    const auto sec = static_cast<std::uint64_t>(c.i32());
+    EXPECT_EQ(sec * 1'000'000'000ULL + c.u32(), latest);
+    EXPECT_EQ(c.string(), "map");
+    const auto load_sec = static_cast<std::uint64_t>(c.i32());
+    EXPECT_EQ(load_sec * 1'000'000'000ULL + c.u32(), latest);
+  }
+  for (const char* topic : {"/grid", "/points", "/trajectory"}) {
+    const auto& bytes = r.by_topic.at(topic)[0];
+    EXPECT_EQ(json_ns(nlohmann::json::parse(bytes.begin(), bytes.end())["timestamp"]), latest) << topic;
+  }
+  for (const auto& bytes : r.by_topic.at("/hvoxels")) {
+    EXPECT_EQ(json_ns(nlohmann::json::parse(bytes.begin(), bytes.end())["entities"][0]["timestamp"]), latest);
+  }
+  // The statistics: from the earliest stamp to the latest, every message counted on its channel.
+  EXPECT_EQ(r.info.start_time, t0);
+  EXPECT_EQ(r.info.end_time, latest);
+  std::uint64_t total = 0;
+  for (const auto& [id, ch] : r.info.channels) {
+    EXPECT_EQ(r.info.message_counts.at(id), stats.messages.at(ch.topic)) << ch.topic;
+    total += stats.messages.at(ch.topic);
+  }
+  EXPECT_EQ(r.info.messages, total);
+  for (const mcap::ChunkInfo& c : r.info.chunks) {
+    EXPECT_EQ(c.start_time, c.index_start_time);
+    EXPECT_EQ(c.end_time, c.index_end_time);
+    EXPECT_LE(t0, c.start_time);
+    EXPECT_LE(c.end_time, latest);
+  }
+}
+
+// Without stamps every message is at 0, still one /tf per pose; a stamp count other than the
+// poses' is refused.
+TEST(FoxgloveSceneTest, WithoutStampsEverythingIsAtZero) {
+  const SmallMap m;
+  FoxgloveSceneStats stats;
+  const Read r = read_all(write(m.map, &m.grid, &stats, {}, three_poses()));
+  EXPECT_EQ(r.log_times.at("/tf").size(), 3U);
+  for (const auto& [topic, times] : r.log_times) {
+    for (const std::uint64_t t : times) EXPECT_EQ(t, 0U) << topic;
+  }
+  EXPECT_EQ(r.info.end_time, 0U);
+  EXPECT_THROW(write(m.map, &m.grid, &stats, {}, three_poses(), {1, 2}), Error);
+}
+
+// Seconds to ns: whole seconds and the fraction apart, so a Unix time keeps its nanoseconds
+// (t · 1e9 in one double rounds to 256 ns there); negative, non-finite and past-int32 refused.
+TEST(FoxgloveSceneTest, StampsInSecondsBecomeNanoseconds) {
+  // 1/512 s = 1953125 ns exactly, and these are exact doubles.
+  const std::vector<double> s = {0.0, 1.5, 1700000000.0 + 3.0 / 512.0, 1700000000.0 + 511.0 / 512.0};
+  const std::vector<std::uint64_t> ns = stamps_ns_of(s, "times.txt");
+  EXPECT_EQ(ns, (std::vector<std::uint64_t>{0, 1'500'000'000ULL, 1'700'000'000'005'859'375ULL, 1'700'000'000'998'046'875ULL}));
+  for (const double bad : {-0.5, std::nan(""), 2147483648.0, 1e300}) {
+    try {
+      (void)stamps_ns_of(std::vector<double>{1.0, bad}, "times.txt");
+      ADD_FAILURE() << bad;
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("times.txt: stamp 2"), std::string::npos) << e.what();
+    }
+  }
+}
+
 TEST(FoxgloveSceneTest, TheSameMapGivesTheSameBytes) {
   const SmallMap a;
   // The same columns inserted in the reverse order of a's walk.
@@ -251,10 +369,19 @@ TEST(FoxgloveSceneTest, RefusesBadParameters) {
   p = {};
   p.parent_frame = p.frame;
   EXPECT_THROW(write(map, nullptr, &stats, p), Error);
+  p = {};
+  p.sensor_frame = p.frame;
+  EXPECT_THROW(write(map, nullptr, &stats, p), Error);
+  // A stamp past int32 seconds (builtin_interfaces/Time) would wrap in the ROS headers.
+  const PoseList one(1, Pose::Identity());
+  EXPECT_THROW(write(map, nullptr, &stats, {}, one, {2'147'483'647ULL * 1'000'000'000ULL}), Error);
+  EXPECT_NO_THROW(write(map, nullptr, &stats, {}, one, {2'147'483'646ULL * 1'000'000'000ULL}));
 }
 
 /// The ecosystem's reader (tests/ros2/read_mcap.js: @mcap/core's indexed and streaming readers,
-/// CDR by @foxglove/rosmsg2-serialization, JSON.parse) on the same file.
+/// CDR by @foxglove/rosmsg2-serialization, JSON.parse) on the same file, with stamped poses: the
+/// script checks every stamp inside a message against its log time, the statistics and each
+/// chunk's times and Message Indexes against the messages; here the log times against the stamps.
 TEST(FoxgloveSceneTest, McapCoreReadsAndDecodesEveryMessage) {
   const fs::path scripts = HMAP_ROS2_SCRIPTS_DIR;
   if (std::system("node --version > /dev/null 2>&1") != 0) GTEST_SKIP() << "node is not installed (Debian: nodejs)";
@@ -266,7 +393,9 @@ TEST(FoxgloveSceneTest, McapCoreReadsAndDecodesEveryMessage) {
   params.tile_cells = 8;
   params.mcap.chunk_bytes = 4096;
   FoxgloveSceneStats stats;
-  const auto file = write(m.map, &m.grid, &stats, params, three_poses());
+  const std::vector<std::uint64_t> stamps = {1'700'000'000'000'000'001ULL, 1'700'000'000'250'000'003ULL,
+                                             1'700'000'001'000'000'007ULL};
+  const auto file = write(m.map, &m.grid, &stats, params, three_poses(), stamps);
   const fs::path dir = test::temp_dir("foxglove_scene");
   const fs::path path = dir / "scene.mcap";
   std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char*>(file.data()), static_cast<std::streamsize>(file.size()));
@@ -285,8 +414,22 @@ TEST(FoxgloveSceneTest, McapCoreReadsAndDecodesEveryMessage) {
   EXPECT_EQ(j["foxglove_grid_cells"].get<std::size_t>(), image.cells.size());
   EXPECT_EQ(j["poses"].get<int>(), 3);
   EXPECT_EQ(j["tf"][0], "world->map");
+  EXPECT_EQ(j["tf"][1], "map->sensor");
   EXPECT_EQ(j["streamed_messages"].get<std::uint64_t>(), j["messages"].get<std::uint64_t>());
   EXPECT_EQ(j["statistics_messages"].get<std::uint64_t>(), j["messages"].get<std::uint64_t>());
+  // Log times (decimal strings: past 2^53): /tf at each pose's stamp, the rest at the last.
+  std::vector<std::string> tf_times;
+  for (const std::uint64_t t : stamps) tf_times.push_back(std::to_string(t));
+  EXPECT_EQ(j["log_times"]["/tf"].get<std::vector<std::string>>(), tf_times);
+  for (const auto& [topic, times] : j["log_times"].items()) {
+    if (topic == "/tf") continue;
+    for (const auto& t : times) EXPECT_EQ(t.get<std::string>(), std::to_string(stamps.back())) << topic;
+  }
+  EXPECT_EQ(j["statistics"]["start"].get<std::string>(), std::to_string(stamps.front()));
+  EXPECT_EQ(j["statistics"]["end"].get<std::string>(), std::to_string(stamps.back()));
+  // Stamps inside the messages checked: two per /tf, one per other message (per entity for /hvoxels).
+  EXPECT_EQ(j["stamps_checked"].get<std::uint64_t>(), j["messages"].get<std::uint64_t>() + 3);
+  EXPECT_GT(j["chunks_checked"].get<int>(), 2);
   fs::remove_all(dir);
 }
 

@@ -5,6 +5,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -137,6 +140,102 @@ TEST(McapWriterTest, MessagesReadInAnyOrderFromPartlyDecompressedChunks) {
   std::vector<std::uint8_t> hit = file;
   hit[static_cast<std::size_t>(reader.info().chunks[2].records_offset) + 100] ^= 0x10;
   EXPECT_NE(open_error(hit).find("data section CRC mismatch"), std::string::npos) << open_error(hit);
+}
+
+// Log times written out of order (a trajectory whose stamps go back, a second channel far
+// later): each message reads back with its own time; the statistics' start and end, and each chunk's
+// (its record's and its index's), are the least and greatest log times of the messages they hold;
+// the Message Index of each chunk lists them by time.
+TEST(McapWriterTest, LogTimesAndStatisticsAreThoseOfTheMessagesWritten) {
+  std::vector<std::uint8_t> file;
+  WriterOptions options;
+  options.chunk_bytes = 200;  // a few messages per chunk
+  Writer writer([&](std::span<const std::uint8_t> b) { file.insert(file.end(), b.begin(), b.end()); }, options);
+  const auto schema = writer.add_schema("x", "ros2msg", "string data\n");
+  const auto tf = writer.add_channel(schema, "/tf", "cdr");
+  const auto map = writer.add_channel(schema, "/map", "cdr");
+  const auto unused = writer.add_channel(schema, "/unused", "cdr");
+  // A Unix time in ns (past 2^53: a double would not hold it), jumping back and forth by steps
+  // that are not multiples of one another.
+  const std::uint64_t t0 = 1'700'000'000'123'456'789ULL;
+  std::vector<std::pair<std::uint16_t, std::uint64_t>> written;  // (channel, log time) in file order
+  std::map<std::string, std::uint64_t> time_of;                  // by the message's data
+  for (std::uint64_t k = 0; k < 40; ++k) {
+    const std::uint64_t t = t0 + (k * 7919 % 40) * 1'000'003ULL + k;  // a permutation of 0..39, scaled
+    writer.write(tf, t, "tf" + std::to_string(k));
+    written.emplace_back(tf, t);
+    time_of["tf" + std::to_string(k)] = t;
+    if (k % 10 == 9) {
+      writer.write(map, t0 + 3'000'000'000ULL - k, "map" + std::to_string(k));
+      written.emplace_back(map, t0 + 3'000'000'000ULL - k);
+      time_of["map" + std::to_string(k)] = t0 + 3'000'000'000ULL - k;
+    }
+  }
+  const WriterStats stats = writer.finish();
+  ASSERT_GT(stats.chunks, 3U);
+
+  const Reader reader(memory_source(file), "times.mcap");
+  const Info& info = reader.info();
+  ASSERT_TRUE(info.indexed);
+  std::uint64_t lo = UINT64_MAX, hi = 0;
+  std::map<std::uint16_t, std::uint64_t> counts;
+  for (const auto& [channel, t] : written) {
+    lo = std::min(lo, t);
+    hi = std::max(hi, t);
+    ++counts[channel];
+  }
+  EXPECT_EQ(info.messages, written.size());
+  EXPECT_EQ(info.start_time, lo);
+  EXPECT_EQ(info.end_time, hi);
+  EXPECT_EQ(info.message_counts, counts);  // no entry for the channel without messages
+  EXPECT_EQ(info.message_counts.count(unused), 0U);
+  EXPECT_EQ(stats.message_counts, counts);
+
+  // Every message with its own log time, as listed from the Message Index records (the summary
+  // points to them): each message's data names the time it was written with.
+  const auto refs = reader.messages({tf, map});
+  ASSERT_EQ(refs.size(), written.size());
+  std::set<std::string> seen;
+  for (const MessageRef& r : refs) {
+    const auto data = reader.read(r);
+    const std::string text(data.begin(), data.end());
+    ASSERT_EQ(time_of.count(text), 1U) << text;
+    EXPECT_EQ(r.log_time, time_of.at(text)) << text;
+    EXPECT_EQ(r.channel, text.starts_with("tf") ? tf : map) << text;
+    EXPECT_TRUE(seen.insert(text).second) << text;
+  }
+
+  // Per chunk: the record's times and the index's are the extremes of its messages.
+  std::map<std::size_t, std::pair<std::uint64_t, std::uint64_t>> extremes;
+  for (const MessageRef& r : refs) {
+    auto [it, fresh] = extremes.try_emplace(r.chunk, r.log_time, r.log_time);
+    it->second.first = std::min(it->second.first, r.log_time);
+    it->second.second = std::max(it->second.second, r.log_time);
+  }
+  ASSERT_EQ(extremes.size(), info.chunks.size());
+  for (const auto& [chunk, range] : extremes) {
+    const ChunkInfo& c = info.chunks.at(chunk);
+    EXPECT_EQ(c.start_time, range.first) << chunk;
+    EXPECT_EQ(c.end_time, range.second) << chunk;
+    EXPECT_EQ(c.index_start_time, range.first) << chunk;
+    EXPECT_EQ(c.index_end_time, range.second) << chunk;
+    // Each Message Index record (opcode, length, channel, entries' byte length, then (time,
+    // offset) pairs) lists its messages by log time.
+    for (const auto& [channel, at] : c.message_indexes) {
+      auto u64 = [&](std::size_t p) {
+        std::uint64_t v = 0;
+        for (int i = 7; i >= 0; --i) v = (v << 8) | file.at(p + static_cast<std::size_t>(i));
+        return v;
+      };
+      const auto begin = static_cast<std::size_t>(at);
+      ASSERT_EQ(file.at(begin), 0x07);
+      const std::size_t entries = (u64(begin + 11) & 0xFFFFFFFFULL) / 16;
+      std::vector<std::uint64_t> times;
+      for (std::size_t e = 0; e < entries; ++e) times.push_back(u64(begin + 15 + 16 * e));
+      EXPECT_FALSE(times.empty());
+      EXPECT_TRUE(std::is_sorted(times.begin(), times.end())) << "chunk " << chunk << " channel " << channel;
+    }
+  }
 }
 
 TEST(McapWriterTest, AFileWithoutMessagesIsWhole) {

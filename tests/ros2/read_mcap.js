@@ -6,6 +6,11 @@
 // topic, and what the messages hold (cubes in the SceneUpdates, the grid's size, the points).
 // Then streams the whole file once more with McapStreamReader (every record, the data section's
 // and summary's CRCs checked) and counts its messages.
+// Time: every stamp a message carries (ROS headers, foxglove timestamps) must be its log time and
+// publish time; the Statistics' message count, start and end times and per-channel counts must be
+// those of the messages read; each Chunk record's and Chunk Index's start and end times those of the
+// chunk's messages, and each Message Index the chunk's messages of its channel, by log time. The
+// log times are printed per topic (ns, as decimal strings: they exceed 2^53).
 //
 //   node read_mcap.js FILE.mcap
 // Exit 0 when every message decoded; any failure throws (exit 1) with the reason.
@@ -48,12 +53,32 @@ async function main() {
       throw new Error(`${channel.topic}: message encoding ${channel.messageEncoding} not handled`);
     }
   }
-  const out = { topics, messages: 0, cubes: 0, entities: 0, points: 0, poses: 0, foxglove_grid_cells: 0, grid: null, tf: [] };
+  const out = { topics, messages: 0, cubes: 0, entities: 0, points: 0, poses: 0, foxglove_grid_cells: 0, grid: null, tf: [],
+                log_times: {}, stamps_checked: 0 };
+  const rosNs = (t) => BigInt(t.sec) * 1000000000n + BigInt(t.nanosec);
+  const jsonNs = (t) => BigInt(t.sec) * 1000000000n + BigInt(t.nsec);
+  let first = null, last = null;
+  const counts = new Map();  // channel id -> messages
   for await (const message of reader.readMessages({ validateCrcs: true })) {
     const channel = reader.channelsById.get(message.channelId);
     const msg = decoders.get(message.channelId).readMessage(message.data);
     topics[channel.topic].messages += 1;
     out.messages += 1;
+    const t = message.logTime;
+    (out.log_times[channel.topic] ??= []).push(t.toString());
+    if (message.publishTime !== t) throw new Error(`${channel.topic}: publish time ${message.publishTime} is not the log time ${t}`);
+    first = first === null || t < first ? t : first;
+    last = last === null || t > last ? t : last;
+    counts.set(message.channelId, (counts.get(message.channelId) ?? 0) + 1);
+    const stamps = [];  // the stamps the message carries, each to equal its log time
+    if (msg.header) stamps.push(rosNs(msg.header.stamp));
+    if (msg.transforms) for (const tr of msg.transforms) stamps.push(rosNs(tr.header.stamp));
+    if (msg.timestamp) stamps.push(jsonNs(msg.timestamp));
+    if (msg.entities) for (const e of msg.entities) stamps.push(jsonNs(e.timestamp));
+    for (const stamp of stamps) {
+      if (stamp !== t) throw new Error(`${channel.topic}: a message stamped ${stamp} is logged at ${t}`);
+      out.stamps_checked += 1;
+    }
     const type = topics[channel.topic].schema;
     if (type === "foxglove.SceneUpdate") {
       for (const e of msg.entities) {
@@ -78,13 +103,65 @@ async function main() {
       for (const t of msg.transforms) out.tf.push(`${t.header.frame_id}->${t.child_frame_id}`);
     }
   }
-  const stream = new McapStreamReader({ validateCrcs: true, decompressHandlers });
+  // The summary's statistics against the messages read.
+  const st = reader.statistics;
+  if (!st) throw new Error("no statistics record in the summary");
+  if (Number(st.messageCount) !== out.messages) throw new Error(`statistics: ${st.messageCount} messages, ${out.messages} read`);
+  if (out.messages > 0 && (st.messageStartTime !== first || st.messageEndTime !== last)) {
+    throw new Error(`statistics: messages from ${st.messageStartTime} to ${st.messageEndTime}, read from ${first} to ${last}`);
+  }
+  for (const [id, n] of counts) {
+    if (Number(st.channelMessageCounts.get(id) ?? 0n) !== n) throw new Error(`statistics: channel ${id} counts ${st.channelMessageCounts.get(id)}, ${n} read`);
+  }
+  for (const [id, n] of st.channelMessageCounts) {
+    if (Number(n) !== (counts.get(id) ?? 0)) throw new Error(`statistics: channel ${id} counts ${n}, ${counts.get(id) ?? 0} read`);
+  }
+  out.statistics = { messages: Number(st.messageCount), start: st.messageStartTime.toString(), end: st.messageEndTime.toString() };
+
+  // Streamed: each chunk with the messages inside it and the Message Index records after it.
+  const stream = new McapStreamReader({ validateCrcs: true, decompressHandlers, includeChunks: true });
   stream.append(fs.readFileSync(file));
   let streamed = 0;
-  for (let record; (record = stream.nextRecord()) !== undefined;) streamed += record.type === "Message" ? 1 : 0;
+  const chunks = [];
+  let chunk = null;  // the chunk whose messages are being read
+  for (let record; (record = stream.nextRecord()) !== undefined;) {
+    if (record.type === "Chunk") {
+      chunk = { start: record.messageStartTime, end: record.messageEndTime, times: new Map(), indexed: new Map() };
+      chunks.push(chunk);
+    } else if (record.type === "Message") {
+      streamed += 1;
+      if (chunk) {
+        if (!chunk.times.has(record.channelId)) chunk.times.set(record.channelId, []);
+        chunk.times.get(record.channelId).push(record.logTime);
+      }
+    } else if (record.type === "MessageIndex") {
+      const last = chunks[chunks.length - 1];
+      last.indexed.set(record.channelId, record.records.map(([time]) => time));
+      chunk = null;  // the chunk's records are over
+    }
+  }
   if (!stream.done()) throw new Error("the stream reader did not reach the end of the file");
+  const byOffset = [...reader.chunkIndexes].sort((a, b) => (a.chunkStartOffset < b.chunkStartOffset ? -1 : 1));
+  if (byOffset.length !== chunks.length) throw new Error(`${byOffset.length} chunk indexes for ${chunks.length} chunks`);
+  chunks.forEach((c, k) => {
+    const all = [...c.times.values()].flat();
+    const lo = all.reduce((a, b) => (b < a ? b : a)), hi = all.reduce((a, b) => (b > a ? b : a));
+    if (c.start !== lo || c.end !== hi) throw new Error(`chunk ${k}: record says ${c.start} to ${c.end}, its messages ${lo} to ${hi}`);
+    if (byOffset[k].messageStartTime !== lo || byOffset[k].messageEndTime !== hi) {
+      throw new Error(`chunk ${k}: index says ${byOffset[k].messageStartTime} to ${byOffset[k].messageEndTime}, its messages ${lo} to ${hi}`);
+    }
+    for (const [id, times] of c.times) {
+      const indexed = c.indexed.get(id);
+      if (!indexed) throw new Error(`chunk ${k}: no message index for channel ${id}`);
+      const sorted = [...times].sort((a, b) => (a < b ? -1 : a > b ? 1 : 0));
+      if (indexed.length !== sorted.length || indexed.some((t, i) => t !== sorted[i])) {
+        throw new Error(`chunk ${k}: the message index of channel ${id} is not its messages' log times in order`);
+      }
+    }
+  });
+  out.chunks_checked = chunks.length;
   out.streamed_messages = streamed;
-  out.statistics_messages = reader.statistics ? Number(reader.statistics.messageCount) : null;
+  out.statistics_messages = Number(st.messageCount);
   console.log(JSON.stringify(out));
 }
 

@@ -58,25 +58,6 @@ std::optional<Pose> read_calib_tr(const std::filesystem::path& path) {
   return std::nullopt;
 }
 
-std::vector<double> read_times(const std::filesystem::path& path) {
-  const std::string bytes = detail::read_file_bytes(path);
-  detail::LineReader lines(bytes);
-  std::vector<std::string_view> tokens;
-  std::vector<double> times;
-  std::string_view line;
-  while (lines.next(line)) {
-    detail::split_whitespace(line, tokens);
-    if (tokens.empty() || tokens.front().starts_with('#')) continue;
-    double t = 0.0;
-    if (tokens.size() != 1 || !detail::parse_double(tokens.front(), t) || !std::isfinite(t)) {
-      throw InputError(path.string(), line_position(lines.line_number()),
-                       "expected one finite timestamp [s]");
-    }
-    times.push_back(t);
-  }
-  return times;
-}
-
 /// Whether `path` is there to be read; an error while checking (no permission) counts as
 /// present, so that reading it reports the error.
 bool file_exists(const std::filesystem::path& path) {
@@ -102,6 +83,25 @@ std::vector<std::filesystem::path> list_scans(const std::filesystem::path& velod
 }
 
 }  // namespace
+
+std::vector<double> read_kitti_times(const std::filesystem::path& path) {
+  const std::string bytes = detail::read_file_bytes(path);
+  detail::LineReader lines(bytes);
+  std::vector<std::string_view> tokens;
+  std::vector<double> times;
+  std::string_view line;
+  while (lines.next(line)) {
+    detail::split_whitespace(line, tokens);
+    if (tokens.empty() || tokens.front().starts_with('#')) continue;
+    double t = 0.0;
+    if (tokens.size() != 1 || !detail::parse_double(tokens.front(), t) || !std::isfinite(t)) {
+      throw InputError(path.string(), line_position(lines.line_number()),
+                       "expected one finite timestamp [s]");
+    }
+    times.push_back(t);
+  }
+  return times;
+}
 
 PointCloud read_kitti_bin(const std::filesystem::path& path, CloudReadStats* stats) {
   const std::string bytes = detail::read_file_bytes(path);
@@ -150,7 +150,7 @@ KittiSequence open_kitti_sequence(const std::filesystem::path& dir, const KittiS
     sequence.T_map_scan = std::move(poses);
   }
   if (const auto times_path = dir / "times.txt"; file_exists(times_path)) {
-    sequence.times = read_times(times_path);
+    sequence.times = read_kitti_times(times_path);
     if (options.max_scans && sequence.times.size() > scans) sequence.times.resize(scans);
   }
   check_kitti_sequence(sequence);

@@ -16,6 +16,10 @@ namespace hmap {
 /// when the file size is not a multiple of 16 bytes.
 [[nodiscard]] PointCloud read_kitti_bin(const std::filesystem::path& path, CloudReadStats* stats = nullptr);
 
+/// A times.txt: one timestamp [s] per line ('#' comments and blank lines skipped). Throws
+/// InputError naming the line of anything else.
+[[nodiscard]] std::vector<double> read_kitti_times(const std::filesystem::path& path);
+
 /// A KITTI sequence folder, listed but not yet read: scans are read one at a time with
 /// read_kitti_bin(sequence.scan_paths[i]) (read_cloud for the .pcd of hmap simulate --sweep).
 struct KittiSequence {

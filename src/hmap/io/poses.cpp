@@ -10,6 +10,7 @@
 
 #include "hmap/core/error.hpp"
 #include "hmap/io/atomic_file.hpp"
+#include "hmap/io/kitti.hpp"
 #include "hmap/io/read_support.hpp"
 
 namespace hmap {
@@ -134,6 +135,20 @@ PoseFile read_pose_file(const std::filesystem::path& path) {
       file.times.push_back(v[0]);
       file.poses.push_back(tum_pose(v, source, n));
     }
+  }
+  return file;
+}
+
+PoseFile read_stamped_pose_file(const std::filesystem::path& path) {
+  PoseFile file = read_pose_file(path);
+  if (file.format != PoseFileFormat::kKitti) return file;
+  const std::filesystem::path times_path = path.parent_path() / "times.txt";
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(times_path, ec)) return file;
+  file.times = read_kitti_times(times_path);
+  if (file.times.size() != file.poses.size()) {
+    throw InputError(times_path.string(), "", "holds " + std::to_string(file.times.size()) + " timestamps for the " +
+                                                  std::to_string(file.poses.size()) + " poses of " + path.string());
   }
   return file;
 }

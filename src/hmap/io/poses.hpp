@@ -29,6 +29,11 @@ struct PoseFile {
 /// non-number, NaN or infinity, or a rotation that is not one.
 [[nodiscard]] PoseFile read_pose_file(const std::filesystem::path& path);
 
+/// read_pose_file, with stamps for a KITTI file too: those of `times.txt` in the file's folder
+/// (KITTI's layout, one line per pose) when there is one, else none. TUM files carry their own.
+/// Throws InputError naming times.txt when its count is not the poses'.
+[[nodiscard]] PoseFile read_stamped_pose_file(const std::filesystem::path& path);
+
 /// read_pose_file(path).poses.
 [[nodiscard]] PoseList read_poses(const std::filesystem::path& path);
 

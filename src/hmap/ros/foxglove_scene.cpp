@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <charconv>
+#include <cmath>
 #include <limits>
 #include <cstring>
 #include <tuple>
@@ -118,15 +119,18 @@ class CdrWriter {
   std::vector<std::uint8_t> bytes_;
 };
 
+// ROS's builtin_interfaces/Time holds int32 seconds: every stamp must fit there too.
+constexpr std::uint64_t kMaxStampNs = 2147483647ULL * 1'000'000'000ULL;
+
 void put_stamp(CdrWriter& w, std::uint64_t ns) {
   w.put(static_cast<std::int32_t>(ns / 1'000'000'000)).put(static_cast<std::uint32_t>(ns % 1'000'000'000));
 }
 
-std::vector<std::uint8_t> occupancy_grid_message(const view::GridImage& image, const FoxgloveSceneParams& p) {
+std::vector<std::uint8_t> occupancy_grid_message(const view::GridImage& image, const FoxgloveSceneParams& p, std::uint64_t stamp_ns) {
   CdrWriter w;
-  put_stamp(w, p.stamp_ns);
+  put_stamp(w, stamp_ns);
   w.string(p.frame);
-  put_stamp(w, p.stamp_ns);  // map_load_time
+  put_stamp(w, stamp_ns);  // map_load_time
   w.put(static_cast<float>(image.resolution)).put(static_cast<std::uint32_t>(image.width)).put(static_cast<std::uint32_t>(image.height));
   w.put(image.origin.x()).put(image.origin.y()).put(0.0);
   w.put(0.0).put(0.0).put(0.0).put(1.0);
@@ -135,13 +139,22 @@ std::vector<std::uint8_t> occupancy_grid_message(const view::GridImage& image, c
   return w.bytes();
 }
 
-std::vector<std::uint8_t> tf_message(const FoxgloveSceneParams& p) {
+/// world -> map (identity) and, with `T_map_sensor`, map -> sensor, both stamped `stamp_ns`.
+std::vector<std::uint8_t> tf_message(const FoxgloveSceneParams& p, std::uint64_t stamp_ns, const Pose* T_map_sensor) {
   CdrWriter w;
-  w.put(std::uint32_t{1});
-  put_stamp(w, p.stamp_ns);
+  w.put(std::uint32_t{T_map_sensor != nullptr ? 2U : 1U});
+  put_stamp(w, stamp_ns);
   w.string(p.parent_frame).string(p.frame);
   w.put(0.0).put(0.0).put(0.0);
   w.put(0.0).put(0.0).put(0.0).put(1.0);
+  if (T_map_sensor != nullptr) {
+    const Eigen::Vector3d t = T_map_sensor->translation();
+    const Eigen::Quaterniond q(T_map_sensor->rotation());
+    put_stamp(w, stamp_ns);
+    w.string(p.frame).string(p.sensor_frame);
+    w.put(t.x()).put(t.y()).put(t.z());
+    w.put(q.x()).put(q.y()).put(q.z()).put(q.w());
+  }
   return w.bytes();
 }
 
@@ -182,14 +195,14 @@ std::string base64(std::span<const std::uint8_t> in) {
 /// foxglove.Grid of the grid image: one float32 field "occupancy", the probability 0..1, NaN
 /// where unknown (a value no probability takes, unlike OccupancyGrid's -1 which a float colour
 /// map would place below free); row-major from the lower-left corner.
-std::string grid_message(const view::GridImage& image, const FoxgloveSceneParams& p) {
+std::string grid_message(const view::GridImage& image, const FoxgloveSceneParams& p, std::uint64_t stamp_ns) {
   std::vector<std::uint8_t> data(image.cells.size() * 4);
   for (std::size_t k = 0; k < image.cells.size(); ++k) {
     const float v = image.cells[k] == view::kUnknownCell ? std::numeric_limits<float>::quiet_NaN()
                                                            : static_cast<float>(image.cells[k]) / 100.0F;
     std::memcpy(data.data() + 4 * k, &v, 4);  // little-endian float32, NumericType FLOAT32 = 7
   }
-  std::string msg = R"({"timestamp":)" + json_stamp(p.stamp_ns) + R"(,"frame_id":")" + p.frame + R"(","pose":{"position":{"x":)";
+  std::string msg = R"({"timestamp":)" + json_stamp(stamp_ns) + R"(,"frame_id":")" + p.frame + R"(","pose":{"position":{"x":)";
   number(msg, image.origin.x());
   msg += ",\"y\":";
   number(msg, image.origin.y());
@@ -213,31 +226,70 @@ std::int32_t floor_div(std::int32_t a, std::int32_t b) { return a >= 0 ? a / b :
 
 }  // namespace
 
+std::vector<std::uint64_t> stamps_ns_of(std::span<const double> stamps_s, const std::string& what) {
+  std::vector<std::uint64_t> out;
+  out.reserve(stamps_s.size());
+  for (std::size_t k = 0; k < stamps_s.size(); ++k) {
+    const double t = stamps_s[k];
+    if (!(t >= 0.0 && t * 1e9 < static_cast<double>(kMaxStampNs) - 1.0)) {
+      throw Error(what + ": stamp " + std::to_string(k + 1) + " (" + std::to_string(t) +
+                  " s) is not a time an MCAP message can carry (0 to 2^31 s)");
+    }
+    // Whole seconds and the fraction apart: t · 1e9 in one double (~1.7e18 for a Unix time) would
+    // round to 256 ns; the fraction is exact in a double and rounds to the nanosecond.
+    const double seconds = std::floor(t);
+    out.push_back(static_cast<std::uint64_t>(seconds) * 1'000'000'000ULL +
+                  static_cast<std::uint64_t>(std::llround((t - seconds) * 1e9)));
+  }
+  return out;
+}
+
 FoxgloveSceneStats write_foxglove_mcap(const HMap& map, const OccupancyGrid* grid, std::span<const Pose> T_map_scans,
-                                       const mcap::Sink& sink, const FoxgloveSceneParams& p) {
+                                       std::span<const std::uint64_t> stamps_ns, const mcap::Sink& sink,
+                                       const FoxgloveSceneParams& p) {
   if (p.tile_cells < 1 || p.tile_cells > 4096) throw Error("foxglove scene: tile_cells must be in 1..4096");
   if (p.frame.empty() || p.parent_frame.empty() || p.frame == p.parent_frame) {
     throw Error("foxglove scene: the frame and its parent must be two non-empty names");
   }
+  if (p.sensor_frame.empty() || p.sensor_frame == p.frame || p.sensor_frame == p.parent_frame) {
+    throw Error("foxglove scene: the sensor frame must be a non-empty name other than the map frame and its parent");
+  }
+  if (!stamps_ns.empty() && stamps_ns.size() != T_map_scans.size()) {
+    throw Error("foxglove scene: " + std::to_string(stamps_ns.size()) + " stamps for " + std::to_string(T_map_scans.size()) +
+                " poses");
+  }
+  for (const std::uint64_t t : stamps_ns) {
+    if (t >= kMaxStampNs) throw Error("foxglove scene: stamp " + std::to_string(t) + " ns is past ROS's int32 seconds");
+  }
+  // The map as a whole is the state after the last scan.
+  const std::uint64_t map_stamp = stamps_ns.empty() ? 0 : *std::max_element(stamps_ns.begin(), stamps_ns.end());
   FoxgloveSceneStats stats;
   mcap::Writer writer(sink, p.mcap);
   auto count = [&](const char* topic) { ++stats.messages[topic]; };
 
-  // /tf first: the frame exists before anything drawn in it.
+  // /tf first: the frames exist before anything drawn in them. One message per pose at its
+  // stamp (the drive played back); without poses one, for the map frame.
   const auto tf_schema = writer.add_schema("tf2_msgs/msg/TFMessage", "ros2msg", tf_message_definition());
   const auto tf_channel = writer.add_channel(tf_schema, kTfTopic, "cdr");
-  writer.write(tf_channel, p.stamp_ns, tf_message(p));
-  count(kTfTopic);
+  for (std::size_t k = 0; k < T_map_scans.size(); ++k) {
+    const std::uint64_t stamp = stamps_ns.empty() ? 0 : stamps_ns[k];
+    writer.write(tf_channel, stamp, tf_message(p, stamp, &T_map_scans[k]));
+    count(kTfTopic);
+  }
+  if (T_map_scans.empty()) {
+    writer.write(tf_channel, map_stamp, tf_message(p, map_stamp, nullptr));
+    count(kTfTopic);
+  }
 
   if (grid != nullptr && grid->known_cells() > 0) {
     const auto schema = writer.add_schema("nav_msgs/msg/OccupancyGrid", "ros2msg", occupancy_grid_definition());
     const auto channel = writer.add_channel(schema, kMapTopic, "cdr");
     const view::GridImage image = view::grid_image(*grid);
-    writer.write(channel, p.stamp_ns, occupancy_grid_message(image, p));
+    writer.write(channel, map_stamp, occupancy_grid_message(image, p, map_stamp));
     count(kMapTopic);
     const auto grid_schema_id = writer.add_schema("foxglove.Grid", "jsonschema", grid_schema());
     const auto grid_channel = writer.add_channel(grid_schema_id, kGridTopic, "json");
-    writer.write(grid_channel, p.stamp_ns, grid_message(image, p));
+    writer.write(grid_channel, map_stamp, grid_message(image, p, map_stamp));
     count(kGridTopic);
   }
 
@@ -260,7 +312,7 @@ FoxgloveSceneStats write_foxglove_mcap(const HMap& map, const OccupancyGrid* gri
     const auto schema = writer.add_schema("foxglove.SceneUpdate", "jsonschema", scene_update_schema());
     const auto channel = writer.add_channel(schema, kHVoxelTopic, "json");
     const double cell = map.cell_size();
-    const std::string stamp = json_stamp(p.stamp_ns);
+    const std::string stamp = json_stamp(map_stamp);
     std::string msg;
     for (std::size_t begin = 0; begin < cubes.size();) {
       const auto tile = tile_of(cubes[begin]);
@@ -295,7 +347,7 @@ FoxgloveSceneStats write_foxglove_mcap(const HMap& map, const OccupancyGrid* gri
         msg += ",\"a\":1}}";
       }
       msg += "]}]}";
-      writer.write(channel, p.stamp_ns, msg);
+      writer.write(channel, map_stamp, msg);
       count(kHVoxelTopic);
       begin = end;
     }
@@ -316,11 +368,11 @@ FoxgloveSceneStats write_foxglove_mcap(const HMap& map, const OccupancyGrid* gri
     }
     const auto schema = writer.add_schema("foxglove.PointCloud", "jsonschema", point_cloud_schema());
     const auto channel = writer.add_channel(schema, kPointsTopic, "json");
-    const std::string msg = R"({"timestamp":)" + json_stamp(p.stamp_ns) + R"(,"frame_id":")" + p.frame + R"(","pose":)" +
+    const std::string msg = R"({"timestamp":)" + json_stamp(map_stamp) + R"(,"frame_id":")" + p.frame + R"(","pose":)" +
                             kIdentityPose +
                             R"(,"point_stride":12,"fields":[{"name":"x","offset":0,"type":7},{"name":"y","offset":4,"type":7},{"name":"z","offset":8,"type":7}],"data":")" +
                             base64(data) + "\"}";
-    writer.write(channel, p.stamp_ns, msg);
+    writer.write(channel, map_stamp, msg);
     count(kPointsTopic);
     stats.points = points.size();
   }
@@ -328,7 +380,7 @@ FoxgloveSceneStats write_foxglove_mcap(const HMap& map, const OccupancyGrid* gri
   if (!T_map_scans.empty()) {
     const auto schema = writer.add_schema("foxglove.PosesInFrame", "jsonschema", poses_in_frame_schema());
     const auto channel = writer.add_channel(schema, kTrajectoryTopic, "json");
-    std::string msg = R"({"timestamp":)" + json_stamp(p.stamp_ns) + R"(,"frame_id":")" + p.frame + R"(","poses":[)";
+    std::string msg = R"({"timestamp":)" + json_stamp(map_stamp) + R"(,"frame_id":")" + p.frame + R"(","poses":[)";
     for (std::size_t k = 0; k < T_map_scans.size(); ++k) {
       const Eigen::Vector3d position = T_map_scans[k].translation();
       const Eigen::Quaterniond q(T_map_scans[k].rotation());
@@ -343,7 +395,7 @@ FoxgloveSceneStats write_foxglove_mcap(const HMap& map, const OccupancyGrid* gri
       msg += "}}";
     }
     msg += "]}";
-    writer.write(channel, p.stamp_ns, msg);
+    writer.write(channel, map_stamp, msg);
     count(kTrajectoryTopic);
   }
 

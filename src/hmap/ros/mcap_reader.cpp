@@ -193,9 +193,9 @@ ChunkInfo parse_chunk(const ByteSource& src, std::uint64_t at, std::uint64_t len
   const std::uint64_t head_max = std::min<std::uint64_t>(length, 28 + 4 + 255 + 8);
   const auto head = read_bytes(src, at + kRecordPrefix, head_max);
   Cursor c(head, at + kRecordPrefix, name, "chunk");
-  (void)c.get<std::uint64_t>();
-  (void)c.get<std::uint64_t>();
   ChunkInfo chunk;
+  chunk.start_time = chunk.index_start_time = c.get<std::uint64_t>();
+  chunk.end_time = chunk.index_end_time = c.get<std::uint64_t>();
   chunk.record_offset = at;
   chunk.uncompressed_size = c.get<std::uint64_t>();
   chunk.uncompressed_crc = c.get<std::uint32_t>();
@@ -393,8 +393,8 @@ void Reader::read_summary(std::uint64_t begin, std::uint64_t end) {
           info_.message_counts[id] = m.get<std::uint64_t>();
         }
       } else {
-        (void)c.get<std::uint64_t>();  // message start time
-        (void)c.get<std::uint64_t>();  // message end time
+        const auto index_start_time = c.get<std::uint64_t>();
+        const auto index_end_time = c.get<std::uint64_t>();
         const auto chunk_at = c.get<std::uint64_t>();
         const auto chunk_length = c.get<std::uint64_t>();
         auto offsets = c.bytes32();
@@ -407,6 +407,8 @@ void Reader::read_summary(std::uint64_t begin, std::uint64_t end) {
           throw InputError(name_, at_byte(at), "chunk index points to byte " + std::to_string(chunk_at) + ", where no chunk starts");
         }
         ChunkInfo chunk = parse_chunk(src, chunk_at, chunk_head.length, name_);
+        chunk.index_start_time = index_start_time;
+        chunk.index_end_time = index_end_time;
         Cursor m(offsets, 0, name_, "chunk index");
         while (m.left() > 0) {
           const auto channel = m.get<std::uint16_t>();

@@ -52,6 +52,11 @@ struct ChunkInfo {
   std::uint64_t uncompressed_size = 0;
   std::uint32_t uncompressed_crc = 0;  ///< 0: not written
   std::string compression;             ///< "", zstd or lz4
+  std::uint64_t start_time = 0;        ///< [ns] the chunk record's message start time
+  std::uint64_t end_time = 0;          ///< [ns] and end time
+  /// [ns] the chunk index's message start and end times (the summary's); the record's when the
+  /// data section was scanned. A whole file has them equal.
+  std::uint64_t index_start_time = 0, index_end_time = 0;
   std::set<std::uint16_t> channels;    ///< from the chunk index; empty: unknown (look inside)
   /// Where each channel's Message Index record for this chunk lies in the file (from the chunk
   /// index): the messages are then listed without decompressing the chunk.

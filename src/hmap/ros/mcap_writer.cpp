@@ -151,9 +151,11 @@ void Writer::close_chunk() {
   emit(chunk_bytes);
 
   // One Message Index per channel in the chunk: (log time, offset of the message record in the
-  // uncompressed records).
+  // uncompressed records), in log time order (messages may be written out of it, e.g. /tf of an
+  // unsorted trajectory), so that a reader seeking a time can search it.
   const std::uint64_t indexes_start = offset_;
-  for (const auto& [channel, entries] : chunk_messages_) {
+  for (auto& [channel, entries] : chunk_messages_) {
+    std::stable_sort(entries.begin(), entries.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
     index.message_index_offsets[channel] = offset_;
     Record mi(kMessageIndex);
     mi.put(channel).put(static_cast<std::uint32_t>(entries.size() * 16));

@@ -45,7 +45,9 @@ class Writer {
   std::uint16_t add_schema(const std::string& name, const std::string& encoding, std::string_view data);
   /// A channel on `topic` with messages of schema `schema_id` in `message_encoding` (cdr, json).
   std::uint16_t add_channel(std::uint16_t schema_id, const std::string& topic, const std::string& message_encoding);
-  /// One message; log and publish time [ns]. Throws hmap::Error for an unknown channel or after finish().
+  /// One message; log and publish time [ns], in any order: each chunk's and the statistics' start
+  /// and end times are the least and greatest log times written into them, and each Message Index
+  /// lists its chunk's messages by log time. Throws hmap::Error for an unknown channel or after finish().
   void write(std::uint16_t channel_id, std::uint64_t log_time, std::span<const std::uint8_t> data);
   void write(std::uint16_t channel_id, std::uint64_t log_time, std::string_view data);
   /// Closes the last chunk and writes Data End, the summary, the summary offsets, the footer and
