@@ -381,6 +381,7 @@ std::string index_state(const BagScan& scan) {
   if (scan.index_pos >= scan.file_size) {
     return "its index, announced at byte " + std::to_string(scan.index_pos) + ", lies past its end";
   }
+  if (scan.end < scan.file_size && scan.index_pos <= scan.end) return "its index is cut off";
   return "its index is damaged";
 }
 
@@ -394,9 +395,8 @@ std::unique_ptr<Recording> open_ros1_bag(const std::string& path) { return std::
 
 std::unique_ptr<Recording> open_scanned_ros1_bag(const std::string& path, std::string bytes) {
   BagScan scan = scan_bag(bytes);
-  const std::string where = scan.end < scan.file_size ? "the readable part ends at byte " + std::to_string(scan.end) + " of " +
-                                                            std::to_string(scan.file_size) + " (" + scan.stop + ")"
-                                                      : "read to its end at byte " + std::to_string(scan.file_size);
+  const std::string where = "the readable part ends at byte " + std::to_string(scan.end) + " of " +
+                            std::to_string(scan.file_size) + (scan.end < scan.file_size ? " (" + scan.stop + ")" : "");
   if (scan.messages.empty()) {
     throw std::runtime_error("no whole message to read: " + index_state(scan) + ", and " + where);
   }

@@ -220,8 +220,13 @@ class Scanner {
       return false;
     }
     std::string data;
+    if (size == 0 && r.data_length == 0) {
+      // The chunk a recorder was writing when it was killed: its sizes are written when it closes.
+      stop_at(at, "an unfinished " + kind + " chunk, its header still saying 0 bytes");
+      return false;
+    }
     if (!decompress_chunk(kind, file_.substr(r.data_at, r.data_length), size, data)) {
-      stop_at(at, "a " + kind + " chunk that does not decompress to its stated size");
+      stop_at(at, "a chunk (" + kind + ") that does not decompress to its stated size");
       return false;
     }
     // A compressed chunk is read whole or not at all: its messages are taken back when a record
@@ -230,7 +235,7 @@ class Scanner {
     const auto chunk_index = static_cast<std::uint32_t>(scan_.chunks.size());
     if (walk_chunk(data, 0, data.size(), chunk_index) != data.size()) {
       scan_.messages.resize(messages_before);
-      stop_at(at, "a " + kind + " chunk with a malformed record inside");
+      stop_at(at, "a chunk (" + kind + ") with a malformed record inside");
       return false;
     }
     scan_.chunks.push_back({kind, r.data_at, r.data_length, size});
