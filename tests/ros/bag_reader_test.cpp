@@ -6,10 +6,10 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
-#include <nlohmann/json.hpp>
 #include <random>
 #include <sstream>
 
+#include "common/bag_layout.hpp"
 #include "common/test_data.hpp"
 #include "hmap/core/error.hpp"
 #include "hmap/io/kitti.hpp"
@@ -28,7 +28,7 @@ class BagReaderTest : public ::testing::Test {
   static void SetUpTestSuite() {
     if (!fs::exists(test::data_dir() / "balm_os0")) return;
     dir_ = test::temp_dir("bags");
-    const fs::path script = fs::path(HMAP_TESTS_SOURCE_DIR) / "ros" / "make_test_bags.py";
+    const fs::path script = test::make_test_bags_script();
     // Debian's python (not a virtual env's) has the rosbag module.
     const std::string cmd = "/usr/bin/python3 " + script.string() + " " + test::data_dir().string() + " " + dir_.string() +
                             " " + std::to_string(kScans) + " " + std::to_string(kStep) + " 2>&1";
@@ -205,60 +205,6 @@ TEST_F(BagReaderTest, DamagedBagsGiveInputErrors) {
   }
 }
 
-/// Where each message of an indexed bag becomes whole, and its chunks, from rosbag's own index
-/// (make_test_bags.py --layout): the truth the linear reading of a cut copy is held to.
-struct BagLayout {
-  std::uint64_t size = 0;
-  struct Chunk {
-    std::uint64_t pos = 0;
-    std::uint64_t end = 0;  ///< of its data
-  };
-  std::vector<Chunk> chunks;
-  std::vector<std::pair<std::string, std::uint64_t>> messages;  ///< topic, byte where it is whole
-
-  static BagLayout of(const fs::path& bag) {
-    const std::string cmd = "/usr/bin/python3 " + (fs::path(HMAP_TESTS_SOURCE_DIR) / "ros" / "make_test_bags.py").string() +
-                            " --layout " + bag.string();
-    std::string out;
-    FILE* pipe = ::popen(cmd.c_str(), "r");
-    if (pipe == nullptr) return {};
-    char buf[4096];
-    std::size_t n = 0;
-    while ((n = std::fread(buf, 1, sizeof buf, pipe)) > 0) out.append(buf, n);
-    ::pclose(pipe);
-    BagLayout layout;
-    const auto json = nlohmann::json::parse(out);
-    layout.size = json["size"];
-    for (const auto& c : json["chunks"]) layout.chunks.push_back({c["pos"], c["end"]});
-    for (const auto& m : json["messages"]) layout.messages.emplace_back(m["topic"], m["whole_at"]);
-    return layout;
-  }
-  /// The messages (of `topic`, or all) whole in the first `cut` bytes.
-  [[nodiscard]] std::size_t whole_before(std::uint64_t cut, const std::string& topic = "") const {
-    return static_cast<std::size_t>(std::count_if(messages.begin(), messages.end(), [&](const auto& m) {
-      return m.second <= cut && (topic.empty() || m.first == topic);
-    }));
-  }
-  [[nodiscard]] std::uint64_t last_whole_at(std::uint64_t cut) const {
-    std::uint64_t last = 0;
-    for (const auto& m : messages) {
-      if (m.second <= cut) last = std::max(last, m.second);
-    }
-    return last;
-  }
-};
-
-std::string read_bytes(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  return buffer.str();
-}
-
-void write_bytes(const fs::path& path, const std::string& bytes) {
-  std::ofstream(path, std::ios::binary).write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-}
-
 TEST_F(BagReaderTest, ACutOffBagIsReadUpToItsLastWholeMessage) {
   // A bag cut at chosen bytes (inside the file header, inside a chunk's header, inside its data,
   // between chunks, inside the index) reads without its index: exactly the messages whole before
@@ -268,10 +214,10 @@ TEST_F(BagReaderTest, ACutOffBagIsReadUpToItsLastWholeMessage) {
   const PoseList truth = read_poses(test::data_dir() / "balm_os0" / "poses.txt");
   const fs::path path = dir_ / "cut.bag";
   for (const char* name : {"chunked.bag", "chunked_bz2.bag", "chunked_lz4.bag"}) {
-    const BagLayout layout = BagLayout::of(dir_ / name);
+    const test::BagLayout layout = test::BagLayout::of(dir_ / name);
     ASSERT_EQ(layout.messages.size(), static_cast<std::size_t>(4 * kScans)) << name;
     ASSERT_GE(layout.chunks.size(), static_cast<std::size_t>(kScans)) << name;
-    const std::string bytes = read_bytes(dir_ / name);
+    const std::string bytes = test::read_bytes(dir_ / name);
     ASSERT_EQ(bytes.size(), layout.size);
     struct Cut {
       std::uint64_t at;
@@ -288,7 +234,7 @@ TEST_F(BagReaderTest, ACutOffBagIsReadUpToItsLastWholeMessage) {
     int refused = 0;
     for (const Cut& cut : cuts) {
       SCOPED_TRACE(std::string(name) + " cut at byte " + std::to_string(cut.at));
-      write_bytes(path, bytes.substr(0, cut.at));
+      test::write_bytes(path, bytes.substr(0, cut.at));
       const std::size_t expected = layout.whole_before(cut.at);
       if (expected == 0) {
         const std::string e = error_of([&] { (void)ros::read_bag_info(path); });
@@ -336,7 +282,7 @@ TEST_F(BagReaderTest, AKilledRecordingIsReadWithoutItsIndex) {
   // chunks, and of the open one when it is stored uncompressed, as the writer counted them.
   for (const char* name : {"killed.bag", "killed_lz4.bag"}) {
     SCOPED_TRACE(name);
-    const std::size_t expected = std::stoul(read_bytes(dir_ / (std::string(name) + ".expected")));
+    const std::size_t expected = std::stoul(test::read_bytes(dir_ / (std::string(name) + ".expected")));
     const ros::BagInfo info = ros::read_bag_info(dir_ / name);
     EXPECT_EQ(info.messages, expected);
     ASSERT_EQ(info.warnings.size(), 1U);
@@ -357,14 +303,14 @@ TEST_F(BagReaderTest, ACorruptLengthIsReadUpToItOrOneLine) {
   // A whole bag whose second chunk's header length is damaged: read up to that chunk, exactly;
   // the same damage in the first chunk leaves nothing, refused in one line. Every 4-byte length
   // field of the first records set to huge values gives a result or one line, never a crash.
-  const std::string bytes = read_bytes(dir_ / "chunked.bag");
-  const BagLayout layout = BagLayout::of(dir_ / "chunked.bag");
+  const std::string bytes = test::read_bytes(dir_ / "chunked.bag");
+  const test::BagLayout layout = test::BagLayout::of(dir_ / "chunked.bag");
   ASSERT_GE(layout.chunks.size(), 2U);
   const fs::path path = dir_ / "corrupt.bag";
   const auto with_u32 = [&](std::uint64_t at, std::uint32_t value) {
     std::string damaged = bytes;
     std::memcpy(damaged.data() + at, &value, 4);
-    write_bytes(path, damaged);
+    test::write_bytes(path, damaged);
   };
   const std::uint64_t second = layout.chunks[1].pos;
   with_u32(second, 0xFFFFFFF0U);
