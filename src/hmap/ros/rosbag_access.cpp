@@ -401,7 +401,8 @@ std::unique_ptr<Recording> open_scanned_ros1_bag(const std::string& path, std::s
     throw std::runtime_error("no whole message to read: " + index_state(scan) + ", and " + where);
   }
   std::string warning = path + ": read linearly, without its index (" + index_state(scan) + "): " + where + "; " +
-                        std::to_string(scan.messages.size()) + " whole messages read";
+                        std::to_string(scan.messages.size()) +
+                        (scan.messages.size() == 1 ? " whole message read" : " whole messages read");
   return std::make_unique<ScannedBag>(std::move(bytes), std::move(scan), std::move(warning));
 }
 
