@@ -17,6 +17,7 @@
 #include <map>
 #include <numeric>
 #include <stdexcept>
+#include <type_traits>
 
 #include "hmap/ros/rosbag_scan.hpp"
 
@@ -328,9 +329,9 @@ class ScannedBag final : public Recording {
   std::vector<CloudHeader> index_clouds(const std::string& topic, std::size_t max) override {
     std::vector<CloudHeader> headers;
     for_each({topic}, [&](const Message& m, std::size_t k) {
-      if (max > 0 && headers.size() == max) return;
       headers.push_back(cloud_header(m));
       clouds_.push_back(k);
+      return max == 0 || headers.size() < max;
     });
     return headers;
   }
@@ -356,7 +357,8 @@ class ScannedBag final : public Recording {
   }
 
  private:
-  /// Calls f(message, its index in the scan) for the messages of `topics`, in time order.
+  /// Calls f(message, its index in the scan) for the messages of `topics`, in time order, until
+  /// f returns false (an f returning void sees them all).
   template <typename F>
   void for_each(const std::vector<std::string>& topics, F&& f) const {
     const BagScan& scan = messages_.scan();
@@ -364,7 +366,12 @@ class ScannedBag final : public Recording {
       const ScannedConnection& c = scan.connections.at(scan.messages[k].conn);
       if (std::find(topics.begin(), topics.end(), c.topic) == topics.end()) continue;
       const std::vector<std::uint8_t> bytes = messages_.bytes(k);
-      f(Message{c.topic, c.type, c.md5sum, bytes.data(), bytes.size()}, k);
+      const Message m{c.topic, c.type, c.md5sum, bytes.data(), bytes.size()};
+      if constexpr (std::is_same_v<decltype(f(m, k)), bool>) {
+        if (!f(m, k)) return;
+      } else {
+        f(m, k);
+      }
     }
   }
 
