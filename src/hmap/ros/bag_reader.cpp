@@ -323,7 +323,7 @@ bool is_ros2(const fs::path& path) { return fs::is_directory(path) || access::is
 /// magic is MCAP, anything else must be a ROS 1 bag (its records checked first, into `ros1_info`).
 /// A ROS 1 bag that rosbag cannot open by its index (cut off before the index was written, or
 /// with the index or a record damaged) is read record by record up to where it stops being
-/// readable, as `rosbag reindex` would recover it, with a warning saying so.
+/// readable (no `rosbag reindex` needed), with a warning saying so.
 std::unique_ptr<access::Recording> open_recording(const fs::path& path, BagInfo& ros1_info) {
   if (!fs::exists(path)) throw InputError(path.string(), "", "cannot open: no such file or folder");
   if (is_ros2(path)) return access::open_ros2(path);
