@@ -168,7 +168,8 @@ struct TfTree {
 /// rosbag's record-header parser (ros::Header::parse) trusts the field lengths and reads past its
 /// buffer when one is damaged, so every header is checked here first: each field is a 4-byte
 /// length, then name=value, and the fields fill the header exactly; header and body lie inside
-/// the file (or the uncompressed chunk). Throws InputError naming the byte of the first bad record.
+/// the file (or the uncompressed chunk). Throws InputError naming the byte of the first bad record
+/// (open_recording then reads the bag record by record instead, without rosbag).
 void check_bag_records(const fs::path& path, BagInfo& info) {
   const std::string bytes = detail::read_file_bytes(path);
   const std::string source = path.string();
@@ -200,18 +201,17 @@ void check_bag_records(const fs::path& path, BagInfo& info) {
   const auto walk = [&](auto& self, std::size_t begin, std::size_t end, bool top) -> void {
     std::size_t pos = begin;
     while (pos < end) {
-      const std::string hint = top ? " (the bag is cut off)" : "";
-      if (end - pos < 4) throw InputError(source, detail::byte_position(pos), "truncated record" + hint);
+      if (end - pos < 4) throw InputError(source, detail::byte_position(pos), "truncated record");
       const auto header_len = detail::load<std::uint32_t>(bytes.data() + pos, detail::kSwapLittleEndian);
       if (header_len > end - pos - 4 || end - pos - 4 - header_len < 4) {
         throw InputError(source, detail::byte_position(pos), "record header of " + std::to_string(header_len) +
-                                                                 " bytes runs past the end" + hint);
+                                                                 " bytes runs past the end");
       }
       const std::size_t header_at = pos + 4;
       const auto data_len = detail::load<std::uint32_t>(bytes.data() + header_at + header_len, detail::kSwapLittleEndian);
       const std::size_t data_at = header_at + header_len + 4;
       if (data_len > end - data_at) {
-        throw InputError(source, detail::byte_position(pos), "record body of " + std::to_string(data_len) + " bytes runs past the end" + hint);
+        throw InputError(source, detail::byte_position(pos), "record body of " + std::to_string(data_len) + " bytes runs past the end");
       }
       if (top) top_starts.insert(pos);
       else chunk_inner[current_chunk].insert(pos - begin);
