@@ -209,8 +209,15 @@ def main():
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL).returncode == 0
         if ok:
             for name in sorted(os.listdir(tmp)):
+                if not name.endswith(".bag"):
+                    continue
                 with open(os.path.join(tmp, name), "rb") as f:
-                    write(out, "rosbag", name, f.read())
+                    data = f.read()
+                write(out, "rosbag", name, data)
+                # Bags cut off (a recorder killed before its index): read linearly up to the cut.
+                if name.startswith("chunked"):
+                    for k in (1, 2):
+                        write(out, "rosbag", f"cut_{k}of3_{name}", data[:len(data) * k // 3])
         else:
             print("make_corpus.py: no ROS bag seeds (python3-rosbag missing or balm_os0 absent)")
     print("make_corpus.py: seeds written to", out)

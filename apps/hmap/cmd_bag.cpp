@@ -31,9 +31,15 @@ void run_bag_info(const std::string& path) {
   std::printf("path:        %s\nformat:      %s\n", path.c_str(), info.format.c_str());
   if (info.version != 0) std::printf("version:     %u.%u\n", info.version / 100, info.version % 100);
   std::printf("duration:    %.3f s (%.6f to %.6f)\nmessages:    %zu\n"
-              "chunks:      %zu\ncompression: %s\ntopics:\n",
+              "chunks:      %zu\ncompression: %s\n",
               info.end_time - info.start_time, info.start_time,
               info.end_time, info.messages, info.chunks, info.compression.c_str());
+  if (info.scanned_to != 0) {
+    std::printf("index:       none usable: read linearly, %s at byte %llu of %llu\n",
+                info.scanned_to < info.file_size ? "cut off" : "to its end",
+                static_cast<unsigned long long>(info.scanned_to), static_cast<unsigned long long>(info.file_size));
+  }
+  std::printf("topics:\n");
   for (const auto& t : info.topics) std::printf("  %-32s %6zu msgs  %s\n", t.name.c_str(), t.messages, t.type.c_str());
 }
 

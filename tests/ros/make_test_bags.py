@@ -4,6 +4,8 @@ from the first real Ouster OS0-64 scans of ../shared/data/balm_os0 (every STEP-t
 
 usage: make_test_bags.py DATA_DIR OUT_DIR [SCANS] [STEP]
        make_test_bags.py DATA_DIR --full OUT.bag   (all 80 full scans, /os_cloud + /tf + /odom, lz4)
+       make_test_bags.py --layout BAG   (JSON, from rosbag's own index: where each message of BAG
+                                         becomes whole in the file, and where its chunks lie)
 
 Bags written to OUT_DIR (stamps = balm_os0/times.txt; poses = balm_os0/poses.txt, P_k):
   tf.bag          /os_cloud (x y z intensity float32, frame os_sensor); /tf_static map->odom
@@ -20,6 +22,13 @@ Bags written to OUT_DIR (stamps = balm_os0/times.txt; poses = balm_os0/poses.txt
                   in odom.bag, /imu sensor_msgs/Imu at 100 Hz from t_0 - 0.1 s: gyro (0.01 k,
                   -0.02, 0.3), accel (0, 0, 9.81), orientation covariance[0] = -1 (none)
   imu_two.bag     /imu and /imu_b (two Imu topics), one message each
+  chunked.bag, chunked_bz2.bag, chunked_lz4.bag   per scan k: /tf odom->os_sensor at t_k - 0.1 s,
+                  /odom, /os_cloud at t_k, /tf at t_k + 0.1 s; chunks of about 8 kB (one per scan),
+                  uncompressed / bz2 / lz4 (cut at chosen bytes by the tests of bags cut off)
+  killed.bag, killed_lz4.bag   as chunked(_lz4).bag, the writer killed (os._exit after a flush)
+                  after the second scan's cloud, before it closed the chunk or wrote the index;
+                  killed*.bag.expected: how many messages its closed chunks hold (and, stored
+                  uncompressed, the open chunk's whole ones), by the writer's own counts
 """
 import os
 import sys
@@ -135,7 +144,40 @@ def full_bag(data_dir, out):
     os.replace(partial, out)
 
 
+def layout(path):
+    """Prints, from rosbag's own index of an indexed bag, the byte where each message becomes
+    whole (an uncompressed chunk: its record's end; a compressed one: the chunk's end) and the chunks."""
+    import json
+    with rosbag.Bag(path) as bag:
+        f = bag._file
+        chunks = []
+        for info in bag._chunks:
+            h = bag._chunk_headers[info.pos]
+            chunks.append({'pos': info.pos, 'data_pos': h.data_pos, 'end': h.data_pos + h.compressed_size,
+                           'compression': h.compression})
+        messages = []
+        for conn_id, entries in bag._connection_indexes.items():
+            topic = bag._connections[conn_id].topic
+            for e in entries:
+                h = bag._chunk_headers[e.chunk_pos]
+                if h.compression != 'none':
+                    messages.append({'topic': topic, 'whole_at': h.data_pos + h.compressed_size})
+                    continue
+                f.seek(h.data_pos + e.offset)
+                while True:  # the entry may point at the connection record before the message
+                    header = rosbag.bag._read_header(f)
+                    size = rosbag.bag._read_uint32(f)
+                    f.seek(size, os.SEEK_CUR)
+                    if rosbag.bag._read_uint8_field(header, 'op') == 0x02:
+                        break
+                messages.append({'topic': topic, 'whole_at': f.tell()})
+        print(json.dumps({'size': os.path.getsize(path), 'chunks': chunks, 'messages': messages}))
+
+
 def main():
+    if len(sys.argv) == 3 and sys.argv[1] == '--layout':
+        layout(sys.argv[2])
+        return
     if len(sys.argv) == 4 and sys.argv[2] == '--full':
         full_bag(sys.argv[1], sys.argv[3])
         return
@@ -226,6 +268,33 @@ def main():
     with rosbag.Bag(f'{out_dir}/imu_two.bag', 'w') as bag:
         bag.write('/imu', imu_msg(stamps[0], 0), stamps[0])
         bag.write('/imu_b', imu_msg(stamps[0], 1), stamps[0])
+
+    def write_scan(bag, k):
+        before = rospy.Time.from_sec(float(times[k]) - 0.1)
+        after = rospy.Time.from_sec(float(times[k]) + 0.1)
+        bag.write('/tf', TFMessage([transform('odom', 'os_sensor', before, poses[k][0], poses[k][1])]), before)
+        bag.write('/odom', odometry(stamps[k], poses[k][0], poses[k][1]), stamps[k])
+        bag.write('/os_cloud', cloud_msg(clouds[k], stamps[k], 'os_sensor'), stamps[k])
+        bag.write('/tf', TFMessage([transform('odom', 'os_sensor', after, poses[k][0], poses[k][1])]), after)
+
+    for name, compression in (('chunked', 'none'), ('chunked_bz2', 'bz2'), ('chunked_lz4', 'lz4')):
+        with rosbag.Bag(f'{out_dir}/{name}.bag', 'w', compression=compression, chunk_threshold=8192) as bag:
+            for k in range(scans):
+                write_scan(bag, k)
+
+    for name, compression in (('killed', 'none'), ('killed_lz4', 'lz4')):
+        pid = os.fork()
+        if pid == 0:
+            bag = rosbag.Bag(f'{out_dir}/{name}.bag', 'w', compression=compression, chunk_threshold=8192)
+            for k in range(min(2, scans)):
+                write_scan(bag, k)
+            closed = sum(sum(c.connection_counts.values()) for c in bag._chunks)
+            open_chunk = sum(bag._curr_chunk_info.connection_counts.values()) if bag._curr_chunk_info else 0
+            with open(f'{out_dir}/{name}.bag.expected', 'w') as f:
+                f.write(str(closed + (open_chunk if compression == 'none' else 0)))
+            bag._file.flush()
+            os._exit(0)  # as a recorder killed: nothing closed, no index
+        os.waitpid(pid, 0)
 
     with rosbag.Bag(f'{out_dir}/tiny.bag', 'w') as bag:
         bag.write('/odom', odometry(stamps[0], poses[0][0], poses[0][1]), stamps[0])

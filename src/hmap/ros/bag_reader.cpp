@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <exception>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -25,14 +26,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-/// What to do about a bag that ends early (a recorder killed, or stopped by a full disk, before
-/// it wrote the index at the end): rosbag's own tool rebuilds the index from the chunks that are
-/// whole.
-std::string cut_off_hint(const std::string& bag) {
-  return "; the bag looks cut off before its index was written: `rosbag reindex " + bag +
-         "` rebuilds the index from the whole chunks (it keeps a .orig.bag copy), then read the new bag";
-}
-
 /// Runs `f`, turning what rosbag throws (BagException, boost and std errors) into an InputError
 /// naming the bag. Our own errors pass unchanged.
 template <typename F>
@@ -44,10 +37,7 @@ auto guarded(const fs::path& path, F&& f) -> decltype(f()) {
   } catch (const std::bad_alloc&) {
     throw InputError(path.string(), "", "unreadable bag: a record claims more memory than available");
   } catch (const std::exception& e) {
-    const std::string what = e.what();
-    // rosbag's words for a bag whose recorder never wrote the index (killed, or out of disk).
-    const bool unindexed = what.find("unindexed") != std::string::npos || what.find("Bag unindexed") != std::string::npos;
-    throw InputError(path.string(), "", "unreadable bag: " + what + (unindexed ? cut_off_hint(path.string()) : std::string()));
+    throw InputError(path.string(), "", std::string("unreadable bag: ") + e.what());
   }
 }
 
@@ -178,7 +168,8 @@ struct TfTree {
 /// rosbag's record-header parser (ros::Header::parse) trusts the field lengths and reads past its
 /// buffer when one is damaged, so every header is checked here first: each field is a 4-byte
 /// length, then name=value, and the fields fill the header exactly; header and body lie inside
-/// the file (or the uncompressed chunk). Throws InputError naming the byte of the first bad record.
+/// the file (or the uncompressed chunk). Throws InputError naming the byte of the first bad record
+/// (open_recording then reads the bag record by record instead, without rosbag).
 void check_bag_records(const fs::path& path, BagInfo& info) {
   const std::string bytes = detail::read_file_bytes(path);
   const std::string source = path.string();
@@ -210,19 +201,17 @@ void check_bag_records(const fs::path& path, BagInfo& info) {
   const auto walk = [&](auto& self, std::size_t begin, std::size_t end, bool top) -> void {
     std::size_t pos = begin;
     while (pos < end) {
-      // A record that runs past the end of the file itself: the bag was cut off.
-      const std::string hint = top ? cut_off_hint(source) : std::string();
-      if (end - pos < 4) throw InputError(source, detail::byte_position(pos), "truncated record" + hint);
+      if (end - pos < 4) throw InputError(source, detail::byte_position(pos), "truncated record");
       const auto header_len = detail::load<std::uint32_t>(bytes.data() + pos, detail::kSwapLittleEndian);
       if (header_len > end - pos - 4 || end - pos - 4 - header_len < 4) {
         throw InputError(source, detail::byte_position(pos), "record header of " + std::to_string(header_len) +
-                                                                 " bytes runs past the end" + hint);
+                                                                 " bytes runs past the end");
       }
       const std::size_t header_at = pos + 4;
       const auto data_len = detail::load<std::uint32_t>(bytes.data() + header_at + header_len, detail::kSwapLittleEndian);
       const std::size_t data_at = header_at + header_len + 4;
       if (data_len > end - data_at) {
-        throw InputError(source, detail::byte_position(pos), "record body of " + std::to_string(data_len) + " bytes runs past the end" + hint);
+        throw InputError(source, detail::byte_position(pos), "record body of " + std::to_string(data_len) + " bytes runs past the end");
       }
       if (top) top_starts.insert(pos);
       else chunk_inner[current_chunk].insert(pos - begin);
@@ -301,8 +290,7 @@ void check_bag_records(const fs::path& path, BagInfo& info) {
   walk(walk, 13, bytes.size(), true);
   for (const auto& [offset, where] : seeks) {
     if (top_starts.count(offset) == 0) {
-      throw InputError(source, detail::byte_position(where), "points to byte " + std::to_string(offset) + ", where no record starts" +
-                                                                 (offset >= bytes.size() ? cut_off_hint(source) : std::string()));
+      throw InputError(source, detail::byte_position(where), "points to byte " + std::to_string(offset) + ", where no record starts");
     }
   }
   // rosbag reads conn_count connection records from index_pos, then chunk_count chunk infos.
@@ -333,12 +321,27 @@ bool is_ros2(const fs::path& path) { return fs::is_directory(path) || access::is
 
 /// The recording at `path`, whatever its kind: a folder is rosbag2, a file starting with the MCAP
 /// magic is MCAP, anything else must be a ROS 1 bag (its records checked first, into `ros1_info`).
+/// A ROS 1 bag that rosbag cannot open by its index (cut off before the index was written, or
+/// with the index or a record damaged) is read record by record up to where it stops being
+/// readable (no `rosbag reindex` needed), with a warning saying so.
 std::unique_ptr<access::Recording> open_recording(const fs::path& path, BagInfo& ros1_info) {
   if (!fs::exists(path)) throw InputError(path.string(), "", "cannot open: no such file or folder");
   if (is_ros2(path)) return access::open_ros2(path);
   if (!fs::is_regular_file(path)) throw InputError(path.string(), "", "cannot open: not a regular file");
-  check_bag_records(path, ros1_info);
-  return access::open_ros1_bag(path.string());
+  std::exception_ptr indexed_error;
+  try {
+    check_bag_records(path, ros1_info);
+    return access::open_ros1_bag(path.string());
+  } catch (const std::bad_alloc&) {
+    throw;
+  } catch (const std::exception&) {
+    indexed_error = std::current_exception();
+  }
+  std::string bytes = detail::read_file_bytes(path);
+  // Not a bag at all: the indexed reader's error says so.
+  if (!std::string_view(bytes).starts_with("#ROSBAG V2.0\n")) std::rethrow_exception(indexed_error);
+  ros1_info = BagInfo{};
+  return access::open_scanned_ros1_bag(path.string(), std::move(bytes));
 }
 
 }  // namespace
@@ -350,7 +353,11 @@ BagInfo read_bag_info(const fs::path& path) {
     const access::Summary summary = bag->summary();
     info.format = summary.format;
     if (!summary.compression.empty()) info.compression = summary.compression;
-    if (!summary.format.starts_with("ROS 1")) info.chunks = summary.chunks;
+    if (!summary.format.starts_with("ROS 1") || summary.scanned) info.chunks = summary.chunks;
+    if (summary.scanned) {
+      info.scanned_to = summary.readable_end;
+      info.file_size = summary.file_size;
+    }
     info.warnings = summary.warnings;
     info.version = summary.version;
     info.start_time = summary.start_time;

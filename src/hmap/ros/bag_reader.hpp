@@ -36,6 +36,10 @@ struct BagInfo {
   std::string compression;    ///< none, lz4, bz2 or "mixed"
   std::vector<BagTopic> topics;  ///< sorted by name
   std::vector<std::string> warnings;  ///< e.g. "cut off at byte N; read the M whole messages before it"
+  /// A ROS 1 bag without a usable index (cut off, or the index damaged) is read record by record
+  /// from its start: then the byte where its readable part ends, else 0.
+  std::uint64_t scanned_to = 0;
+  std::uint64_t file_size = 0;  ///< [bytes], when scanned
 };
 
 /// Lists the topics of a bag (any kind: a ROS 1 bag, an MCAP file, a rosbag2 folder). Throws InputError naming the file for an unreadable or corrupt bag.

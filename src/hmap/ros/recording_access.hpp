@@ -27,6 +27,9 @@ struct Summary {
   std::string compression;       ///< empty: the caller finds it (ROS 1)
   std::vector<TopicCount> topics;
   std::vector<std::string> warnings;  ///< e.g. a recording cut off, read up to its last whole message
+  bool scanned = false;               ///< read record by record, without an index (a cut-off ROS 1 bag)
+  std::uint64_t readable_end = 0;     ///< scanned: [byte] where the readable part ends
+  std::uint64_t file_size = 0;        ///< scanned: [bytes]
 };
 
 /// One transform parent ← child at a stamp (translation, quaternion x y z w).
@@ -90,5 +93,12 @@ class Recording {
 
 /// A ROS 1 bag: Debian's rosbag libraries when hmap was built with them, else a refusal saying so.
 [[nodiscard]] std::unique_ptr<Recording> open_ros1_bag(const std::string& path);
+
+/// A ROS 1 bag read record by record from its first byte (`bytes`, the whole file), for one that
+/// rosbag cannot open by its index (cut off before the index was written, or the index damaged):
+/// its messages up to the first record or chunk that is cut off or malformed, with a warning
+/// naming `path`, the byte where the readable part ends and the messages read. Throws
+/// std::runtime_error when not one whole message is there.
+[[nodiscard]] std::unique_ptr<Recording> open_scanned_ros1_bag(const std::string& path, std::string bytes);
 
 }  // namespace hmap::ros::access

@@ -12,4 +12,8 @@ std::unique_ptr<Recording> open_ros1_bag(const std::string& /*path*/) {
       "libsensor-msgs-dev libnav-msgs-dev libtf2-msgs-dev, then configure and build again");
 }
 
+std::unique_ptr<Recording> open_scanned_ros1_bag(const std::string& path, std::string /*bytes*/) {
+  return open_ros1_bag(path);
+}
+
 }  // namespace hmap::ros::access
