@@ -269,6 +269,22 @@ TEST(ScanMatcher, EmptyMapGivesTheGuessBack) {
   EXPECT_DOUBLE_EQ(r.score, 0.0);
 }
 
+/// A VLP-16 driving along x in `scene`: the map of its scans at `map_x` (heading 0), and its scan at
+/// `truth` in that scan's gravity-aligned frame.
+TwoScans vlp16_drive(const sim::Scene& scene, const Params& p, std::initializer_list<double> map_x,
+                     const PlanarPose& truth) {
+  sim::SpinningLidar lidar(sim::SpinningLidarParams::vlp16());
+  Mapper mapper(p);
+  for (const double x : map_x) {
+    const Pose T = sensor_pose(PlanarPose{x, 0.0, 0.0});
+    mapper.integrate(lidar.scan(scene, T, 0.0).points_sensor, T);
+  }
+  TwoScans out{std::move(mapper.map()), {}};
+  ScanHVoxelizer(p.map).build(lidar.scan(scene, sensor_pose(truth), 0.1).points_sensor,
+                              compose(PlanarPose{}, Attitude{kSensorHeight, 0.0, 0.0}), out.scan_level);
+  return out;
+}
+
 TEST(ScanMatcher, ThinFallbackOnBareGroundKeepsTheGuess) {
   // Bare flat ground and nothing taller (the parking side road's empty end), a VLP-16 driving along
   // x, no odometry: the match falls back on the thin HVoxels. The ground is the same everywhere, so
@@ -280,18 +296,10 @@ TEST(ScanMatcher, ThinFallbackOnBareGroundKeepsTheGuess) {
   const sim::Scene scene = b.build();
   Params p = outdoor_preset();
   p.map.max_range = 25.0;
-  sim::SpinningLidar lidar(sim::SpinningLidarParams::vlp16());
-  Mapper mapper(p);
-  for (const double x : {-3.0, -1.5, 0.0}) {
-    const Pose T = sensor_pose(PlanarPose{x, 0.0, 0.0});
-    mapper.integrate(lidar.scan(scene, T, 0.0).points_sensor, T);
-  }
   const PlanarPose truth{1.5, 0.0, 0.0};
-  ScanHVoxels level;
-  ScanHVoxelizer(p.map).build(lidar.scan(scene, sensor_pose(truth), 0.1).points_sensor,
-                              compose(PlanarPose{}, Attitude{kSensorHeight, 0.0, 0.0}), level);
+  const TwoScans s = vlp16_drive(scene, p, {-3.0, -1.5, 0.0}, truth);
   ScanMatcher matcher(p);
-  const MatchResult r = matcher.match(level, mapper.map(), truth, CoarseSearch::kWhenFailed, std::nullopt,
+  const MatchResult r = matcher.match(s.scan_level, s.map, truth, CoarseSearch::kWhenFailed, std::nullopt,
                                       /*thin_fallback=*/ThinFallback::kFull);
   // A VLP-16's sparse rings leave few cells known all around: the match is skipped or stays put.
   EXPECT_NEAR(r.pose.x, truth.x, 0.05);
@@ -315,28 +323,20 @@ TEST(ScanMatcher, ThinHeadingMatchTurnsByTheKerbsAndKeepsTheOdometrysPosition) {
   b.add("walk", sim::make_ground({-80, 3.7}, {80, 12}, 0.12));
   b.add("walk", sim::make_ground({-80, -12}, {80, -3.7}, 0.12));
   const sim::Scene scene = b.build();
-  Params p = outdoor_preset();  // 0.25 m cells, 25 m range
-  sim::SpinningLidar lidar(sim::SpinningLidarParams::vlp16());
-  Mapper mapper(p);
-  for (const double x : {-1.2, -0.8, -0.4, 0.0}) {
-    const Pose T = sensor_pose(PlanarPose{x, 0.0, 0.0});
-    mapper.integrate(lidar.scan(scene, T, 0.0).points_sensor, T);
-  }
+  const Params p = outdoor_preset();  // 0.25 m cells, 25 m range
   const PlanarPose truth{0.4, 0.0, 0.0};
-  ScanHVoxels level;
-  ScanHVoxelizer(p.map).build(lidar.scan(scene, sensor_pose(truth), 0.1).points_sensor,
-                              compose(PlanarPose{}, Attitude{kSensorHeight, 0.0, 0.0}), level);
+  const TwoScans s = vlp16_drive(scene, p, {-1.2, -0.8, -0.4, 0.0}, truth);
   const PlanarPose odometry{0.45, 0.0, 1.5 * kDeg};
   const MotionPrior prior = MotionPrior::from_sigmas(odometry, 0.05, 0.03);
 
   ScanMatcher keep(p);
-  const MatchResult kept = keep.match(level, mapper.map(), odometry, CoarseSearch::kWhenFailed, std::nullopt,
+  const MatchResult kept = keep.match(s.scan_level, s.map, odometry, CoarseSearch::kWhenFailed, std::nullopt,
                                       ThinFallback::kNone, prior);
   EXPECT_TRUE(kept.skipped);
   EXPECT_DOUBLE_EQ(kept.pose.yaw, odometry.yaw);
 
   ScanMatcher heading(p);
-  const MatchResult turned = heading.match(level, mapper.map(), odometry, CoarseSearch::kWhenFailed, std::nullopt,
+  const MatchResult turned = heading.match(s.scan_level, s.map, odometry, CoarseSearch::kWhenFailed, std::nullopt,
                                            ThinFallback::kHeading, prior);
   EXPECT_FALSE(turned.skipped);
   EXPECT_GE(turned.hvoxels_used, ScanMatcher::kMinHVoxels);
