@@ -107,7 +107,7 @@ void ScanSourceOptions::add_to(CLI::App& app) {
       ->allow_extra_args(false)
       ->delimiter(' ');
   app.add_option("--bag", bag, "Recording: ROS 1 bag, MCAP file or rosbag2 folder (sensor_msgs/PointCloud2 + /tf or an odometry topic)");
-  app.add_option("--cloud-topic", cloud_topic, "PointCloud2 topic of the bag");
+  app.add_option("--cloud-topic", cloud_topic, "PointCloud2 topic of the bag (default: its only PointCloud2 topic)");
   app.add_option("--pose-topic", pose_topic, "nav_msgs/Odometry (or PoseStamped) topic of the bag giving the cloud poses");
   app.add_option("--tf-frames", tf_frames, "MAP [SENSOR]: poses from /tf, map frame to the cloud's (or SENSOR) frame")
       ->expected(1, 2);

@@ -59,13 +59,15 @@ ScanSource open_bag_source(const ScanSourceOptions& sensors, std::size_t max_sca
   for (const auto& w : reader->warnings()) std::fprintf(stderr, "hmap: warning: %s\n", w.c_str());
   ScanSource src;
   src.T_map_scan.emplace();
+  const std::string& topic = reader->cloud_topic();
   for (const auto& f : reader->frames()) {
-    src.scans.emplace_back(sensors.cloud_topic + format("@%.6f", f.stamp));
+    src.scans.emplace_back(topic + format("@%.6f", f.stamp));
     src.T_map_scan->push_back(f.T_map_cloud);
     src.stamps.push_back(f.stamp);
   }
   src.poses_name = sensors.bag + " " + reader->pose_source();
-  src.description = std::to_string(reader->frames().size()) + " clouds of " + sensors.cloud_topic + " in " + sensors.bag +
+  src.description = std::to_string(reader->frames().size()) + " clouds of " + topic +
+                    (reader->cloud_topic_chosen() ? " (its only PointCloud2 topic)" : "") + " in " + sensors.bag +
                     ", poses from " + reader->pose_source();
   src.frames = std::make_shared<BagFrames>(std::move(reader));
   return src;

@@ -93,5 +93,32 @@ TEST_F(BagCliTest, ACutOffBagIsReadWithOneWarningAndNothingReadableIsExitTwo) {
   }
 }
 
+TEST_F(BagCliTest, WithoutCloudTopicTheBagsOnlyPointCloud2TopicIsRead) {
+  // One PointCloud2 topic: taken without --cloud-topic, said so, and the map is the one the topic
+  // named gives, byte for byte.
+  const fs::path bag = dir_ / "chunked_lz4.bag";
+  const std::string rest = " --pose-topic /odom --preset outdoor --out ";
+  const CmdResult named = run("map --bag " + bag.string() + " --cloud-topic /os_cloud" + rest + (dir_ / "named.hmap").string());
+  ASSERT_EQ(named.code, 0) << named.out;
+  const CmdResult chosen = run("map --bag " + bag.string() + rest + (dir_ / "chosen.hmap").string());
+  ASSERT_EQ(chosen.code, 0) << chosen.out;
+  EXPECT_EQ(lines_with(chosen.out, "clouds of /os_cloud (its only PointCloud2 topic) in " + bag.string()), 1U) << chosen.out;
+  EXPECT_EQ(lines_with(named.out, "its only PointCloud2 topic"), 0U) << named.out;
+  EXPECT_EQ(test::read_bytes(dir_ / "chosen.hmap"), test::read_bytes(dir_ / "named.hmap"));
+
+  // Two: one line naming both, exit 2, no map. None: one line, exit 2.
+  const fs::path two_out = dir_ / "two.hmap";
+  const CmdResult two = run("map --bag " + (dir_ / "two_clouds.bag").string() + rest + two_out.string());
+  EXPECT_EQ(two.code, 2) << two.out;
+  EXPECT_EQ(lines_with(two.out, "hmap: error: "), 1U) << two.out;
+  EXPECT_EQ(lines_with(two.out, "has 2 PointCloud2 topics (/os_cloud, /os_cloud_b): choose one with --cloud-topic"), 1U)
+      << two.out;
+  EXPECT_FALSE(fs::exists(two_out));
+  const CmdResult none = run("map --bag " + (dir_ / "imu_two.bag").string() + rest + (dir_ / "none.hmap").string());
+  EXPECT_EQ(none.code, 2) << none.out;
+  EXPECT_EQ(lines_with(none.out, "hmap: error: "), 1U) << none.out;
+  EXPECT_EQ(lines_with(none.out, "no sensor_msgs/PointCloud2 topic"), 1U) << none.out;
+}
+
 }  // namespace
 }  // namespace hmap

@@ -22,6 +22,7 @@ Bags written to OUT_DIR (stamps = balm_os0/times.txt; poses = balm_os0/poses.txt
                   in odom.bag, /imu sensor_msgs/Imu at 100 Hz from t_0 - 0.1 s: gyro (0.01 k,
                   -0.02, 0.3), accel (0, 0, 9.81), orientation covariance[0] = -1 (none)
   imu_two.bag     /imu and /imu_b (two Imu topics), one message each
+  two_clouds.bag  /os_cloud and /os_cloud_b (the same clouds), /odom as in odom.bag
   chunked.bag, chunked_bz2.bag, chunked_lz4.bag   per scan k: /tf odom->os_sensor at t_k - 0.1 s,
                   /odom, /os_cloud at t_k, /tf at t_k + 0.1 s; chunks of about 8 kB (one per scan),
                   uncompressed / bz2 / lz4 (cut at chosen bytes by the tests of bags cut off)
@@ -268,6 +269,12 @@ def main():
     with rosbag.Bag(f'{out_dir}/imu_two.bag', 'w') as bag:
         bag.write('/imu', imu_msg(stamps[0], 0), stamps[0])
         bag.write('/imu_b', imu_msg(stamps[0], 1), stamps[0])
+
+    with rosbag.Bag(f'{out_dir}/two_clouds.bag', 'w') as bag:
+        write_clouds(bag)
+        write_clouds(bag, '/os_cloud_b')
+        for k in range(scans):
+            bag.write('/odom', odometry(stamps[k], poses[k][0], poses[k][1]), stamps[k])
 
     def write_scan(bag, k):
         before = rospy.Time.from_sec(float(times[k]) - 0.1)

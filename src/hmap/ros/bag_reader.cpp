@@ -529,24 +529,40 @@ struct BagCloudReader::Impl {
   std::vector<BagCloudFrame> frames;
   std::string pose_source;
   std::vector<std::string> warnings;
+  bool cloud_topic_chosen = false;
 };
 
 BagCloudReader::BagCloudReader(const fs::path& path, const BagCloudOptions& options) : impl_(std::make_unique<Impl>()) {
   impl_->path = path;
   impl_->options = options;
-  if (options.cloud_topic.empty()) throw Error("a bag needs --cloud-topic (see hmap bag-info " + path.string() + ")");
   guarded(path, [&] {
     BagInfo checked;
     impl_->bag = open_recording(path, checked);
     impl_->warnings = impl_->bag->summary().warnings;
     const std::string source = path.string();
+    if (impl_->options.cloud_topic.empty()) {
+      // No topic asked for: the recording's only PointCloud2 topic, as a user would pick it.
+      std::vector<std::string> clouds;
+      for (const access::TopicCount& t : impl_->bag->summary().topics) {
+        if (t.type == "sensor_msgs/PointCloud2" || t.type == "sensor_msgs/msg/PointCloud2") clouds.push_back(t.name);
+      }
+      if (clouds.empty()) throw InputError(source, "", "no sensor_msgs/PointCloud2 topic (see hmap bag-info " + source + ")");
+      if (clouds.size() > 1) {
+        std::string names;
+        for (const std::string& c : clouds) names += (names.empty() ? "" : ", ") + c;
+        throw Error(source + " has " + std::to_string(clouds.size()) + " PointCloud2 topics (" + names +
+                    "): choose one with --cloud-topic");
+      }
+      impl_->options.cloud_topic = clouds.front();
+      impl_->cloud_topic_chosen = true;
+    }
 
     // The cloud messages and their headers (stamp, frame), indexed without decoding the points.
-    for (auto& h : impl_->bag->index_clouds(options.cloud_topic, options.max_clouds)) {
+    for (auto& h : impl_->bag->index_clouds(impl_->options.cloud_topic, options.max_clouds)) {
       impl_->frames.push_back({h.stamp, std::move(h.frame_id), Pose::Identity()});
     }
     if (impl_->frames.empty()) {
-      throw InputError(source, "", "topic " + options.cloud_topic + " has no messages (see hmap bag-info)");
+      throw InputError(source, "", "topic " + impl_->options.cloud_topic + " has no messages (see hmap bag-info)");
     }
     TfTree tf;
     for (const auto& t : impl_->bag->read_tf()) tf.add(t, source);
@@ -569,7 +585,7 @@ BagCloudReader::BagCloudReader(const fs::path& path, const BagCloudOptions& opti
       for (auto& frame : impl_->frames) {
         const auto T = odom.at(frame.stamp, tol);
         if (!T) {
-          throw InputError(source, options.cloud_topic + " at stamp " + stamp_text(frame.stamp),
+          throw InputError(source, impl_->options.cloud_topic + " at stamp " + stamp_text(frame.stamp),
                            "no pose: " + options.pose_topic + " has " + odom.span_text());
         }
         frame.T_map_cloud = *T;
@@ -591,7 +607,7 @@ BagCloudReader::BagCloudReader(const fs::path& path, const BagCloudOptions& opti
         std::string why;
         const auto T = tf.lookup(options.map_frame, cloud_frame, frame.stamp, tol, why);
         if (!T) {
-          throw InputError(source, options.cloud_topic + " at stamp " + stamp_text(frame.stamp),
+          throw InputError(source, impl_->options.cloud_topic + " at stamp " + stamp_text(frame.stamp),
                            "no pose from /tf for frame " + cloud_frame + ": " + why);
         }
         frame.T_map_cloud = *T;
@@ -610,6 +626,10 @@ BagCloudReader::~BagCloudReader() = default;
 const std::vector<BagCloudFrame>& BagCloudReader::frames() const { return impl_->frames; }
 
 const std::string& BagCloudReader::pose_source() const { return impl_->pose_source; }
+
+const std::string& BagCloudReader::cloud_topic() const { return impl_->options.cloud_topic; }
+
+bool BagCloudReader::cloud_topic_chosen() const { return impl_->cloud_topic_chosen; }
 
 const std::vector<std::string>& BagCloudReader::warnings() const { return impl_->warnings; }
 

@@ -88,7 +88,9 @@ void decode_pointcloud2(const PointCloud2Data& cloud, PointCloud& points, CloudR
 [[nodiscard]] ImuSamples read_bag_imu(const std::filesystem::path& path, const std::string& topic);
 
 struct BagCloudOptions {
-  std::string cloud_topic;   ///< sensor_msgs/PointCloud2 topic (required)
+  /// sensor_msgs/PointCloud2 topic; empty: the recording's only PointCloud2 topic (more than one,
+  /// or none, is an error naming them)
+  std::string cloud_topic;
   /// nav_msgs/Odometry, geometry_msgs/PoseStamped or geometry_msgs/TransformStamped topic. The pose
   /// (parent ← child) is interpolated at the cloud stamp; when the cloud's frame differs from the
   /// child frame and /tf(_static) links them, that transform is appended.
@@ -126,6 +128,10 @@ class BagCloudReader {
                                 std::vector<float>* times_s = nullptr) const;
   /// Where the poses came from, for messages ("/tf: map -> os_sensor" or "odometry /odom").
   [[nodiscard]] const std::string& pose_source() const;
+  /// The PointCloud2 topic read: the one asked for, or the recording's only one.
+  [[nodiscard]] const std::string& cloud_topic() const;
+  /// The topic was not asked for: the recording's only PointCloud2 topic was taken.
+  [[nodiscard]] bool cloud_topic_chosen() const;
   /// What the reader met and read past (a recording cut off), one line each, for the user.
   [[nodiscard]] const std::vector<std::string>& warnings() const;
 
