@@ -1,0 +1,180 @@
+"""hmap.sim: scans equal to `hmap simulate`'s, hand-computed geometry, fixed seeds, bad input."""
+
+import json
+import math
+import os
+import pathlib
+import subprocess
+
+import numpy as np
+import pytest
+
+import hmap
+
+
+def cli_or_skip():
+    cli = pathlib.Path(os.environ.get("HMAP_BIN", ""))
+    if not cli.is_file():
+        pytest.skip("the hmap tool is not built (HMAP_BIN)")
+    return cli
+
+
+def read_kitti_poses(path):
+    rows = np.loadtxt(path, ndmin=2).reshape(-1, 3, 4)
+    poses = np.tile(np.eye(4), (len(rows), 1, 1))
+    poses[:, :3, :] = rows
+    return poses
+
+
+def read_pcd_xyzt(path):
+    """A binary PCD of float fields x y z t, as write_pcd_with_time writes it."""
+    data = path.read_bytes()
+    header, _, body = data.partition(b"DATA binary\n")
+    assert b"FIELDS x y z t" in header
+    return np.frombuffer(body, dtype="<f4").reshape(-1, 4)
+
+
+def simulate_cli(tmp_path, *args):
+    out = tmp_path / "seq"
+    subprocess.run([str(cli_or_skip()), "simulate", "--frames", "2", "--truth-spacing", "2", "--out", str(out), *args],
+                   check=True, capture_output=True, text=True)
+    return out
+
+
+def test_parking_vlp16_equals_the_cli(tmp_path):
+    out = simulate_cli(tmp_path, "--scene", "parking", "--sensor", "vlp16", "--seed", "3")
+    scene = hmap.sim.Scene("parking")
+    path = hmap.sim.car_path(hmap.sim.route("parking"))  # the CLI's: a spinning lidar at 1.73 m
+    lidar = hmap.sim.Sensor("vlp16", seed=3)
+    truth = read_kitti_poses(out / "poses.txt")
+    np.testing.assert_allclose(truth, path.poses[:2], atol=1e-12)
+    np.testing.assert_allclose(np.loadtxt(out / "times.txt"), path.times[:2], atol=1e-12)
+    for k in range(2):  # the same sensor for both frames: its noise generator runs on as the CLI's
+        scan = lidar.scan(scene, path.poses[k], path.times[k])
+        cli = np.fromfile(out / "velodyne" / f"{k:06d}.bin", dtype="<f4").reshape(-1, 4)[:, :3]
+        assert scan["points"].dtype == np.float32 and scan["points"].shape[1] == 3
+        assert len(scan["points"]) > 20000
+        np.testing.assert_array_equal(scan["points"], cli)
+        assert scan["time"] is None
+        assert len(scan["channel"]) == len(scan["primitive"]) == len(scan["kind"]) == len(cli)
+    odometry = hmap.sim.noisy_odometry(path.poses[:2], seed=3)
+    np.testing.assert_allclose(read_kitti_poses(out / "odometry.txt"), odometry, atol=1e-12)
+
+
+def test_office_kinect_equals_the_cli(tmp_path):
+    out = simulate_cli(tmp_path, "--scene", "office", "--sensor", "kinect", "--seed", "2")
+    path = hmap.sim.diff_drive_path(hmap.sim.route("office"), sensor_height=0.8)  # the CLI's Kinect height
+    camera = hmap.sim.Sensor("kinect", seed=2)
+    scene = hmap.sim.Scene("office")
+    for k in range(2):
+        scan = camera.scan(scene, path.poses[k], path.times[k])
+        cli = np.fromfile(out / "velodyne" / f"{k:06d}.bin", dtype="<f4").reshape(-1, 4)[:, :3]
+        assert len(cli) > 1000
+        np.testing.assert_array_equal(scan["points"], cli)
+
+
+def test_sweep_equals_the_cli_with_point_times(tmp_path):
+    out = simulate_cli(tmp_path, "--scene", "parking", "--sensor", "vlp16", "--sweep", "--seed", "5")
+    path = hmap.sim.car_path(hmap.sim.route("parking"))
+    lidar = hmap.sim.Sensor("vlp16", seed=5)
+    scene = hmap.sim.Scene("parking")
+    for k in range(2):
+        sweep = lidar.sweep(scene, path, path.times[k])
+        cli = read_pcd_xyzt(out / "velodyne" / f"{k:06d}.pcd")
+        np.testing.assert_array_equal(sweep["points"], cli[:, :3])
+        np.testing.assert_array_equal(sweep["time"], cli[:, 3])
+        assert sweep["time"].dtype == np.float32
+        assert 0.0 <= sweep["time"].min() and sweep["time"].max() < 0.1  # one 10 Hz revolution
+
+
+FLAT = json.dumps({"objects": [{"type": "ground", "center": [0, 0, 0], "size": [200, 200], "kind": "ground"}]})
+
+
+def test_noise_free_vlp16_over_a_plane_hand_computed():
+    # A VLP-16 2 m above a plane: ring r looks (-15 + 2 r) deg down; rings 0..6 (-15..-3 deg) hit it
+    # at 2 / tan(elevation) horizontally, z = -2 in the sensor frame; -1 deg would reach 114.6 m,
+    # beyond the 100 m range; the upper rings see nothing. 360 / 0.2 = 1800 columns.
+    scene = hmap.sim.Scene.from_json(FLAT)
+    T = np.eye(4)
+    T[2, 3] = 2.0
+    scan = hmap.sim.Sensor("vlp16", noise=False).scan(scene, T)
+    pts = scan["points"]
+    assert len(pts) == 7 * 1800
+    np.testing.assert_allclose(pts[:, 2], -2.0, atol=1e-4)
+    rings = scan["channel"]
+    assert set(rings.tolist()) == set(range(7))
+    horizontal = np.hypot(pts[:, 0], pts[:, 1])
+    expected = 2.0 / np.tan(np.radians(15.0 - 2.0 * rings))
+    np.testing.assert_allclose(horizontal, expected, rtol=1e-4)
+
+
+def test_fixed_seeds_give_identical_arrays():
+    scene = hmap.sim.Scene("boxes")
+    T = np.eye(4)
+    T[:3, 3] = [0.0, 0.35, 0.0]
+    a = hmap.sim.Sensor("utm30lx-tilt", seed=4).scan(scene, T)["points"]
+    b = hmap.sim.Sensor("utm30lx-tilt", seed=4).scan(scene, T)["points"]
+    c = hmap.sim.Sensor("utm30lx-tilt", seed=5).scan(scene, T)["points"]
+    assert len(a) > 1000
+    np.testing.assert_array_equal(a, b)
+    assert not (a.shape == c.shape and np.array_equal(a, c))
+    s1 = scene.sample_surface(0.2, seed=9)
+    np.testing.assert_array_equal(s1, scene.sample_surface(0.2, seed=9))
+    lo, hi = np.array(scene.bounds[0]), np.array(scene.bounds[1])
+    assert np.all(s1 >= lo - 1e-4) and np.all(s1 <= hi + 1e-4)
+
+
+def test_write_sequence_reads_back(tmp_path):
+    scene = hmap.sim.Scene("office")
+    path = hmap.sim.diff_drive_path(hmap.sim.route("office"))
+    lidar = hmap.sim.Sensor("vlp16", seed=1)
+    frames = [lidar.scan(scene, path.poses[k], path.times[k])["points"] for k in range(3)]
+    odometry = hmap.sim.noisy_odometry(path.poses[:3])
+    hmap.sim.write_sequence(tmp_path / "seq", frames, path.poses[:3], path.times[:3], odometry=odometry)
+    back = list(hmap.io.kitti_sequence(tmp_path / "seq"))
+    assert len(back) == 3
+    for (points, pose, stamp), frame, truth, t in zip(back, frames, path.poses, path.times):
+        np.testing.assert_array_equal(points, frame)
+        np.testing.assert_allclose(pose, truth, atol=1e-12)
+        assert stamp == pytest.approx(t, abs=1e-9)
+    np.testing.assert_allclose(read_kitti_poses(tmp_path / "seq" / "odometry.txt"), odometry, atol=1e-12)
+    with pytest.raises(hmap.Error):  # the library's: counts differ
+        hmap.sim.write_sequence(tmp_path / "bad", frames, path.poses[:2], path.times[:2])
+
+
+def test_trajectory_pose_at_interpolates():
+    poses = np.tile(np.eye(4), (3, 1, 1))
+    poses[:, 0, 3] = [0.0, 1.0, 2.0]
+    path = hmap.sim.Trajectory(poses, [0.0, 1.0, 2.0])
+    assert len(path) == 3
+    np.testing.assert_allclose(path.pose_at(0.5)[:3, 3], [0.5, 0.0, 0.0], atol=1e-12)  # straight, uniform
+    np.testing.assert_allclose(path.pose_at(5.0), poses[2], atol=1e-12)                 # clamped
+
+
+def test_bad_input():
+    scene = hmap.sim.Scene("boxes")
+    with pytest.raises(hmap.Error, match="boxes"):   # the library lists the known scenes
+        hmap.sim.Scene("garage")
+    with pytest.raises(ValueError, match="unknown sensor 'os1'"):
+        hmap.sim.Sensor("os1")
+    lidar = hmap.sim.Sensor("vlp16")
+    with pytest.raises(ValueError, match="T_world_sensor must be a 4x4"):
+        lidar.scan(scene, np.eye(3))
+    with pytest.raises(ValueError, match="T_world_sensor: .*rigid"):
+        lidar.scan(scene, np.diag([2.0, 1.0, 1.0, 1.0]))
+    with pytest.raises(ValueError, match="t must be finite"):
+        lidar.scan(scene, np.eye(4), math.nan)
+    with pytest.raises(ValueError, match="sweep needs a spinning lidar"):
+        hmap.sim.Sensor("kinect").sweep(scene, hmap.sim.car_path(hmap.sim.route("parking")), 0.0)
+    with pytest.raises(ValueError, match=r"waypoints must be an \(N, 3\)"):
+        hmap.sim.car_path(np.zeros((4, 2)))
+    with pytest.raises(ValueError, match="row 1 is not finite"):
+        hmap.sim.diff_drive_path([[0, 0], [math.nan, 1]])
+    with pytest.raises(hmap.Error):  # the library's: fewer than two waypoints
+        hmap.sim.car_path(np.zeros((1, 3)))
+    with pytest.raises(ValueError, match="unknown route"):
+        hmap.sim.route("moon")
+    with pytest.raises(ValueError, match="axes must be"):
+        hmap.sim.noisy_odometry(np.tile(np.eye(4), (2, 1, 1)), axes="xy")
+    with pytest.raises(hmap.Error, match=r"objects\[0\]"):
+        hmap.sim.Scene.from_json('{"objects": [{"type": "box", "size": [1, 2]}]}')
