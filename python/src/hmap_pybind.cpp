@@ -37,7 +37,8 @@ namespace py = pybind11;
 
 namespace hmap::python {
 
-void bind_sim(py::module_& m);  // sim_pybind.cpp
+void bind_sim(py::module_& m);   // sim_pybind.cpp
+void bind_pvox(py::module_& m);  // pvox_pybind.cpp
 
 namespace {
 
@@ -673,6 +674,7 @@ PYBIND11_MODULE(_hmap, m) {
          "scanner poses by calib.txt's Tr), 'T_cam_velo': 4x4 or None, 'times': (N,) or None}.");
 
   bind_sim(m);
+  bind_pvox(m);
 }
 
 }  // namespace hmap::python
