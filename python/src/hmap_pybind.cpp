@@ -27,6 +27,12 @@
 #include "hmap/io/config.hpp"
 #include "hmap/io/hmap_file.hpp"
 #include "hmap/io/kitti.hpp"
+#include "hmap/io/octomap_export.hpp"
+#include "hmap/io/pgm_export.hpp"
+#include "hmap/io/ply_export.hpp"
+#include "hmap/io/png.hpp"
+#include "hmap/occupancy/exported_grid.hpp"
+#include "hmap/occupancy/grid_reading.hpp"
 #include "hmap/io/poses.hpp"
 #include "hmap/maps/mapper.hpp"
 #include "hmap/occupancy/hybrid_mapper.hpp"
@@ -480,6 +486,108 @@ py::dict kitti_dict(const std::filesystem::path& dir, std::optional<std::size_t>
   return d;
 }
 
+// ---------------------------------------------------------------------------------------------
+// Writers: `hmap export`'s files from a Map
+
+/// The grid `hmap export` writes (hmap/occupancy/exported_grid.hpp) for a map and its grid choice.
+ExportedGrid exported_grid(const HMap& map, const OccupancyGrid* grid, std::span<const GroundPatch> ground,
+                           const std::string& source) {
+  const std::optional<GridSource> parsed = parse_grid_source(source);
+  if (!parsed) throw py::value_error("grid must be 'both', 'kept' or 'judged', got '" + source + "'");
+  ExportGridParams p;
+  p.source = *parsed;
+  ExportedGrid choice = export_grid(map, ground, grid, p);
+  if (!choice.ground_found) {
+    throw Error(format("no ground found near the hint (%g, %g, %g): the map holds no floor to judge its columns on",
+                       choice.hint.x(), choice.hint.y(), choice.hint.z()));
+  }
+  return choice;
+}
+
+void write_ply(const Map& m, const std::filesystem::path& path, bool points, std::optional<double> z_step) {
+  m.read([&](const HMap& map, const OccupancyGrid*, std::span<const GroundPatch>) {
+    if (!points) {
+      py::gil_scoped_release release;
+      write_hvoxel_boxes_ply(path, map);
+      return 0;
+    }
+    const double step = z_step.value_or(map.cell_size());  // export --points' default
+    if (!(step >= 1e-3 && step <= 100.0)) throw py::value_error(format("z_step = %g m is out of its range [0.001, 100] m", step));
+    py::gil_scoped_release release;
+    write_points_ply(path, recover_points(map, step, MemoryBudget{}));
+    return 0;
+  });
+}
+
+py::dict write_pgm(const Map& m, const std::filesystem::path& stem, const std::string& source) {
+  return m.read([&](const HMap& map, const OccupancyGrid* grid, std::span<const GroundPatch> ground) {
+    std::size_t occupied = 0, free_cells = 0;
+    std::string what;
+    {
+      py::gil_scoped_release release;
+      const ExportedGrid choice = exported_grid(map, grid, ground, source);
+      PgmExportParams pgm;
+      pgm.reading = GridReading::for_map(map.params().occupancy);  // as `hmap export --pgm` reads the grid
+      write_pgm_map(stem, choice.grid, pgm);
+      choice.grid.for_each_cell([&](const CellKey&, float l) {
+        const CellClass c = pgm.reading.classify(probability(l));
+        occupied += c == CellClass::kOccupied ? 1 : 0;
+        free_cells += c == CellClass::kFree ? 1 : 0;
+      });
+      what = choice.what;
+    }
+    py::dict d;
+    d["pgm"] = pgm_stem(stem).string() + ".pgm";
+    d["yaml"] = pgm_stem(stem).string() + ".yaml";
+    d["occupied"] = occupied;
+    d["free"] = free_cells;
+    d["grid"] = what;
+    return d;
+  });
+}
+
+py::dict write_bt(const Map& m, const std::filesystem::path& path) {
+  return m.read([&](const HMap& map, const OccupancyGrid* grid, std::span<const GroundPatch> ground) {
+    OctomapExportStats s;
+    {
+      py::gil_scoped_release release;
+      // Free leaves from the exported grid when the map holds one and its ground, as `hmap export --bt`.
+      std::vector<FreeBand> free;
+      if (grid != nullptr && grid->known_cells() > 0 && !ground.empty()) {
+        const ExportedGrid choice = exported_grid(map, grid, ground, "both");
+        free = free_bands(choice.grid, choice.ground, map.params().occupancy.z_plus);
+      }
+      s = write_octomap_bt(path, map, free, MemoryBudget{});
+    }
+    py::dict d;
+    d["occupied_voxels"] = s.occupied_voxels;
+    d["free_voxels"] = s.free_voxels;
+    d["leaves"] = s.leaves;
+    return d;
+  });
+}
+
+void write_png_array(const std::filesystem::path& path, const py::handle& image) {
+  if (!py::isinstance<py::array>(image)) throw py::value_error("image must be a numpy array of shape (H, W, 3), dtype uint8");
+  const auto arr = py::reinterpret_borrow<py::array>(image);
+  if (arr.ndim() != 3 || arr.shape(2) != 3 || arr.shape(0) < 1 || arr.shape(1) < 1) {
+    std::string shape = "(";
+    for (py::ssize_t d = 0; d < arr.ndim(); ++d) shape += (d ? ", " : "") + std::to_string(arr.shape(d));
+    throw py::value_error("image must have shape (H, W, 3) with H, W >= 1, got " + shape + (arr.ndim() == 1 ? ",)" : ")"));
+  }
+  if (!arr.dtype().is(py::dtype::of<std::uint8_t>())) {
+    throw py::value_error("image must hold uint8, got dtype " + std::string(py::str(arr.dtype())));
+  }
+  if (arr.shape(0) > 1 << 16 || arr.shape(1) > 1 << 16) throw py::value_error("image is larger than 65536 pixels on a side");
+  const auto c = py::array_t<std::uint8_t, py::array::c_style | py::array::forcecast>::ensure(arr);
+  RgbImage img;
+  img.width = static_cast<int>(arr.shape(1));
+  img.height = static_cast<int>(arr.shape(0));
+  img.rgb.assign(c.data(), c.data() + c.size());
+  py::gil_scoped_release release;
+  write_png(path, img);
+}
+
 }  // namespace
 
 PYBIND11_MODULE(_hmap, m) {
@@ -672,6 +780,30 @@ PYBIND11_MODULE(_hmap, m) {
   io.def("open_kitti", &kitti_dict, py::arg("dir"), py::arg("max_scans") = py::none(),
          "A KITTI folder listed, not read: {'scans': paths, 'T_map_scan': (N, 4, 4) or None (poses.txt turned into "
          "scanner poses by calib.txt's Tr), 'T_cam_velo': 4x4 or None, 'times': (N,) or None}.");
+
+  io.def("write_ply", &write_ply, py::arg("map"), py::arg("path"), py::kw_only(), py::arg("points") = false,
+         py::arg("z_step") = py::none(),
+         "`hmap export --ply`: each HVoxel as a box coloured by height (binary PLY, MeshLab, CloudCompare, Open3D); "
+         "points=True: the recovered points instead, every z_step [m] (default: the cell size) up each HVoxel "
+         "(`--points`). Written atomically; equal maps give equal files.");
+  io.def("write_points_ply", [](const std::filesystem::path& path, const py::handle& points) {
+    const py::array arr = checked_points(points, "points");
+    PointCloud storage;
+    const std::span<const Point3f> pts = points_of(arr, storage, NonFinite::kRaise, "points");
+    const PointCloud cloud(pts.begin(), pts.end());
+    py::gil_scoped_release release;
+    write_points_ply(path, cloud);
+  }, py::arg("path"), py::arg("points"), "An (N, 3) array as a PLY point cloud coloured by height, atomically.");
+  io.def("write_pgm", &write_pgm, py::arg("map"), py::arg("stem"), py::kw_only(), py::arg("grid") = "both",
+         "`hmap export --pgm`: the 2D occupancy grid as STEM.pgm + STEM.yaml (ROS map_server, Nav2); grid: "
+         "'both', 'kept' or 'judged' (`--grid`); a map without a kept grid has one derived from its columns. "
+         "Returns {'pgm', 'yaml' (paths), 'occupied', 'free' (cells as written), 'grid' (which grid)}.");
+  io.def("write_bt", &write_bt, py::arg("map"), py::arg("path"),
+         "`hmap export --bt`: the HVoxels as occupied OctoMap leaves at the cell size (octovis), the 2D grid's "
+         "free cells as free leaves from the ground up to occupancy.z_plus when the map holds a grid and ground "
+         "patches. Returns {'occupied_voxels', 'free_voxels', 'leaves'}.");
+  io.def("write_png", &write_png_array, py::arg("path"), py::arg("image"),
+         "An (H, W, 3) uint8 RGB image (row 0 the top) as a PNG file, atomically.");
 
   bind_sim(m);
   bind_pvox(m);
