@@ -11,8 +11,9 @@ odometry and the KITTI-layout sequence writer.
 
 The same seed and the same calls give the same points as ``hmap simulate --seed``: the first
 frames of ``hmap simulate --scene parking --sensor vlp16`` are ``lidar.scan`` at ``path.poses[k]``.
-The CLI's driver (sensor heights per scene, the boxes and office paths, the truth clouds, the IMU)
-still lives in apps/hmap/simulation.cpp and is not bound.
+``hmap.sim.simulate("parking", "vlp16", frames=20, seed=1)`` is the whole of ``hmap simulate``
+(the same library call: scans, true poses, noisy odometry, truth clouds, IMU) in memory, and
+``write_sequence`` writes its KITTI folder.
 """
 
 from ._hmap import sim as _sim
@@ -26,6 +27,7 @@ car_path = _sim.car_path
 diff_drive_path = _sim.diff_drive_path
 noisy_odometry = _sim.noisy_odometry
 write_sequence = _sim.write_sequence
+simulate = _sim.simulate
 
 __all__ = ["Scene", "Sensor", "Trajectory", "scene_names", "route", "car_path", "diff_drive_path", "noisy_odometry",
-           "write_sequence"]
+           "write_sequence", "simulate"]

@@ -19,47 +19,21 @@
 #include "hmap/sim/builtin_scenes.hpp"
 #include "hmap/sim/scene_json.hpp"
 #include "hmap/sim/sensors.hpp"
+#include "hmap/sim/simulation.hpp"
 #include "hmap/sim/trajectory.hpp"
 
 namespace hmap::python {
 
 namespace {
 
-using SensorVariant = std::variant<sim::SpinningLidar, sim::DepthCamera, sim::LineScanner>;
-
-constexpr const char* kSensorNames = "vlp16, hdl64, kinect, utm30lx-tilt, utm30lx-yaw";
-
-/// A sensor by the CLI's name (`hmap simulate --sensor`), from the library's device presets;
-/// `noise=False` zeroes the noise and dropouts as the CLI's noise-free truth scans do.
-SensorVariant make_sensor(const std::string& name, std::uint64_t seed, bool noise) {
-  if (name == "vlp16" || name == "hdl64") {
-    auto p = name == "vlp16" ? sim::SpinningLidarParams::vlp16() : sim::SpinningLidarParams::hdl64e();
-    p.seed = seed;
-    if (!noise) p.range_sigma = 0.0, p.dropout_probability = 0.0;
-    return sim::SpinningLidar(p);
-  }
-  if (name == "kinect") {
-    auto p = sim::DepthCameraParams::kinect_one();
-    p.seed = seed;
-    if (!noise) p.sigma_base = 0.0, p.sigma_quadratic = 0.0, p.dropout_probability = 0.0;
-    return sim::DepthCamera(p);
-  }
-  if (name == "utm30lx-tilt" || name == "utm30lx-yaw") {
-    auto p = name == "utm30lx-tilt" ? sim::LineScannerParams::utm30lx_tilting() : sim::LineScannerParams::utm30lx_yawing();
-    p.seed = seed;
-    if (!noise) p.range_sigma = 0.0, p.dropout_probability = 0.0;
-    return sim::LineScanner(p);
-  }
-  throw py::value_error("unknown sensor '" + name + "' (known: " + kSensorNames + ")");
-}
-
 /// A sensor with the lock that keeps its noise generator to one scan at a time while scans run
 /// without the GIL.
 struct PySensor {
   std::string name;
   std::mutex mutex;
-  SensorVariant sensor;
-  PySensor(std::string n, std::uint64_t seed, bool noise) : name(std::move(n)), sensor(make_sensor(name, seed, noise)) {}
+  sim::AnySensor sensor;
+  PySensor(std::string n, std::uint64_t seed, bool noise)
+      : name(std::move(n)), sensor(sim::make_sensor(name, seed, noise ? sim::SensorNoise::kModelled : sim::SensorNoise::kNone)) {}
 };
 
 template <typename T>
@@ -159,6 +133,76 @@ void write_sequence(const std::filesystem::path& dir, const py::sequence& frames
   write_simulated_sequence(dir, clouds, truth, stamps, odom, truth_cloud, per_point);
 }
 
+py::dict simulate_dict(const py::handle& scene_arg, const std::string& sensor, std::size_t frames, std::size_t stride,
+                       bool long_route, std::uint64_t seed, double truth_spacing, double truth_reach, double imu_rate,
+                       bool sweep) {
+  sim::SimulationSpec spec;
+  const sim::Scene* scene = nullptr;
+  std::optional<sim::Scene> builtin;
+  if (py::isinstance<py::str>(scene_arg)) {
+    spec.scene = py::cast<std::string>(scene_arg);
+    builtin.emplace(sim::make_scene(spec.scene));
+    scene = &*builtin;
+  } else if (py::isinstance<sim::Scene>(scene_arg)) {
+    spec.scene.clear();  // a scene of the caller's: the office robot's route, as --scene-file
+    scene = &py::cast<const sim::Scene&>(scene_arg);
+  } else {
+    throw py::value_error("scene must be a built-in scene's name or an hmap.sim.Scene");
+  }
+  spec.sensor = sensor;
+  spec.frames = frames;
+  spec.stride = stride;
+  spec.long_route = long_route;
+  spec.seed = seed;
+  spec.truth_spacing = truth_spacing;
+  spec.truth_reach = truth_reach;
+  spec.imu_rate = imu_rate;
+  spec.sweep = sweep;
+  sim::SimulatedRecording rec;
+  {
+    py::gil_scoped_release release;  // `scene_arg` keeps a caller's scene alive meanwhile
+    rec = sim::simulate(spec, *scene);
+  }
+  py::dict d;
+  py::list scans;
+  for (const PointCloud& c : rec.scans) scans.append(points_array(c));
+  d["scans"] = scans;
+  if (rec.point_times.empty()) {
+    d["point_times"] = py::none();
+  } else {
+    py::list times;
+    for (const auto& t : rec.point_times) times.append(vector_of(t));
+    d["point_times"] = times;
+  }
+  d["poses"] = poses_array(rec.T_world_sensor);
+  d["times"] = vector_of(rec.times);
+  d["odometry"] = poses_array(rec.odometry);
+  if (rec.imu.empty()) {
+    d["imu"] = py::none();
+  } else {
+    const auto n = static_cast<py::ssize_t>(rec.imu.size());
+    py::array_t<double> t(n), gyro({n, py::ssize_t{3}}), accel({n, py::ssize_t{3}});
+    auto tw = t.mutable_unchecked<1>();
+    auto gw = gyro.mutable_unchecked<2>();
+    auto aw = accel.mutable_unchecked<2>();
+    for (py::ssize_t i = 0; i < n; ++i) {
+      const ImuSample& sample = rec.imu[static_cast<std::size_t>(i)];
+      tw(i) = sample.t;
+      for (int a = 0; a < 3; ++a) gw(i, a) = sample.gyro[a], aw(i, a) = sample.accel[a];
+    }
+    py::dict imu;
+    imu["t"] = t;
+    imu["gyro"] = gyro;
+    imu["accel"] = accel;
+    d["imu"] = imu;
+  }
+  d["truth_surface"] = points_array(rec.truth_surface);
+  d["truth_ground"] = points_array(rec.truth_ground);
+  d["truth_seen"] = points_array(rec.truth_seen);
+  d["points"] = rec.points;
+  return d;
+}
+
 }  // namespace
 
 void bind_sim(py::module_& m) {
@@ -215,7 +259,7 @@ void bind_sim(py::module_& m) {
       .def(py::init([](const std::string& name, std::uint64_t seed, bool noise) {
         return std::make_unique<PySensor>(name, seed, noise);
       }), py::arg("name"), py::arg("seed") = 1, py::kw_only(), py::arg("noise") = true)
-      .def_static("names", [] { return std::vector<std::string>{"vlp16", "hdl64", "kinect", "utm30lx-tilt", "utm30lx-yaw"}; })
+      .def_static("names", &sim::sensor_names)
       .def_readonly("name", &PySensor::name)
       .def_property_readonly("max_range", [](PySensor& self) {
         return std::visit([](const auto& x) { return x.params().max_range; }, self.sensor);
@@ -295,6 +339,18 @@ void bind_sim(py::module_& m) {
      py::arg("seed") = 1,
      "The frame-to-frame motions of (N, 4, 4) `truth`, each perturbed (sigma = fixed + proportional * |motion|, "
      "[m] and [rad]), integrated from truth[0]: (N, 4, 4), what `hmap simulate` writes to odometry.txt for its seed.");
+  s.def("simulate", &simulate_dict, py::arg("scene") = "parking", py::arg("sensor") = "vlp16", py::kw_only(),
+        py::arg("frames") = 0, py::arg("stride") = 1, py::arg("long_route") = false, py::arg("seed") = 1,
+        py::arg("truth_spacing") = 0.1, py::arg("truth_reach") = 30.0, py::arg("imu_rate") = 0.0,
+        py::arg("sweep") = false,
+        "`hmap simulate` in memory: the sensor (Sensor.names()) along the scene's scripted path (a Scene object "
+        "drives the office robot's route, as --scene-file), every `stride`-th frame of the 10 Hz path, the "
+        "first `frames` (0: all). Runs without the GIL. Returns a dict: scans (list of (N, 3) float32, sensor "
+        "frame), point_times (with sweep=True: a (N,) float32 per scan [s] from the sweep's start; else None), "
+        "poses (K, 4, 4) true T_world_sensor, times (K,), odometry (K, 4, 4) noisy, imu ({'t', 'gyro', 'accel'} "
+        "at imu_rate Hz, or None), truth_surface / truth_ground (the dense surface sample every truth_spacing m "
+        "within truth_reach m of the path, and its walkable part) and truth_seen (noise-free returns, world "
+        "frame), points (the scans' total). The same seed gives the files `hmap simulate --seed` writes.");
   s.def("write_sequence", &write_sequence, py::arg("dir"), py::arg("frames"), py::arg("poses"), py::arg("times"),
         py::kw_only(), py::arg("odometry") = py::none(), py::arg("truth_points") = py::none(),
         py::arg("point_times") = py::none(),

@@ -89,6 +89,64 @@ def test_sweep_equals_the_cli_with_point_times(tmp_path):
         assert 0.0 <= sweep["time"].min() and sweep["time"].max() < 0.1  # one 10 Hz revolution
 
 
+def test_simulate_equals_the_cli_files(tmp_path):
+    from test_writers import read_ply
+
+    out = simulate_cli(tmp_path, "--scene", "parking", "--sensor", "vlp16", "--seed", "4", "--imu-rate", "100")
+    rec = hmap.sim.simulate("parking", "vlp16", frames=2, truth_spacing=2, seed=4, imu_rate=100)
+    assert len(rec["scans"]) == 2 and rec["point_times"] is None
+    for k, scan in enumerate(rec["scans"]):
+        cli = np.fromfile(out / "velodyne" / f"{k:06d}.bin", dtype="<f4").reshape(-1, 4)[:, :3]
+        np.testing.assert_array_equal(scan, cli)
+    assert rec["points"] == sum(len(s) for s in rec["scans"])
+    np.testing.assert_allclose(read_kitti_poses(out / "poses.txt"), rec["poses"], atol=1e-12)
+    np.testing.assert_allclose(read_kitti_poses(out / "odometry.txt"), rec["odometry"], atol=1e-12)
+    np.testing.assert_allclose(np.loadtxt(out / "times.txt"), rec["times"], atol=1e-12)
+    for name in ("truth_surface", "truth_ground", "truth_seen"):
+        ply = {"truth_surface": "truth.ply"}.get(name, name + ".ply")
+        vertices, _ = read_ply(out / ply)
+        assert len(vertices) > 100
+        np.testing.assert_array_equal(rec[name], vertices["xyz"], err_msg=name)
+    imu = np.loadtxt(out / "imu.txt", ndmin=2)
+    assert len(imu) == len(rec["imu"]["t"]) > 5
+    np.testing.assert_allclose(imu[:, 0], rec["imu"]["t"], rtol=1e-15)
+    np.testing.assert_allclose(imu[:, 1:4], rec["imu"]["gyro"], rtol=1e-15)
+    np.testing.assert_allclose(imu[:, 4:7], rec["imu"]["accel"], rtol=1e-15)
+    # The parts give the same as the whole: the first frame is Sensor.scan at the path's first pose.
+    path = hmap.sim.car_path(hmap.sim.route("parking"))
+    np.testing.assert_array_equal(hmap.sim.Sensor("vlp16", 4).scan(hmap.sim.Scene("parking"), path.poses[0])["points"],
+                                  rec["scans"][0])
+
+
+def test_simulate_sweep_and_own_scene(tmp_path):
+    out = simulate_cli(tmp_path, "--scene", "parking", "--sensor", "hdl64", "--sweep", "--stride", "7")
+    rec = hmap.sim.simulate("parking", "hdl64", frames=2, stride=7, truth_spacing=2, sweep=True)
+    for k in range(2):
+        cli = read_pcd_xyzt(out / "velodyne" / f"{k:06d}.pcd")
+        np.testing.assert_array_equal(rec["scans"][k], cli[:, :3])
+        np.testing.assert_array_equal(rec["point_times"][k], cli[:, 3])
+    # A scene of one's own drives the office route, as --scene-file does.
+    scene_file = tmp_path / "flat.json"
+    scene_file.write_text(FLAT)
+    own = tmp_path / "own"
+    subprocess.run([str(cli_or_skip()), "simulate", "--scene-file", str(scene_file), "--sensor", "kinect", "--frames", "2",
+                    "--truth-spacing", "2", "--out", str(own)], check=True, capture_output=True)
+    rec = hmap.sim.simulate(hmap.sim.Scene.from_json(FLAT), "kinect", frames=2, truth_spacing=2)
+    np.testing.assert_allclose(read_kitti_poses(own / "poses.txt"), rec["poses"], atol=1e-12)
+    office = hmap.sim.diff_drive_path(hmap.sim.route("office"), sensor_height=0.8)
+    np.testing.assert_allclose(rec["poses"], office.poses[:2], atol=1e-12)
+    for k in range(2):
+        cli = np.fromfile(own / "velodyne" / f"{k:06d}.bin", dtype="<f4").reshape(-1, 4)[:, :3]
+        assert len(cli) > 1000
+        np.testing.assert_array_equal(rec["scans"][k], cli)
+    with pytest.raises(hmap.Error, match="--sweep needs a spinning lidar"):
+        hmap.sim.simulate("office", "kinect", frames=1, sweep=True)
+    with pytest.raises(hmap.Error, match="--stride must be at least 1"):
+        hmap.sim.simulate("office", frames=1, stride=0)
+    with pytest.raises(ValueError, match="scene must be a built-in scene's name or an hmap.sim.Scene"):
+        hmap.sim.simulate(3)
+
+
 FLAT = json.dumps({"objects": [{"type": "ground", "center": [0, 0, 0], "size": [200, 200], "kind": "ground"}]})
 
 
@@ -157,7 +215,7 @@ def test_bad_input():
     scene = hmap.sim.Scene("boxes")
     with pytest.raises(hmap.Error, match="boxes"):   # the library lists the known scenes
         hmap.sim.Scene("garage")
-    with pytest.raises(ValueError, match="unknown sensor 'os1'"):
+    with pytest.raises(hmap.Error, match="unknown sensor 'os1' \\(known: vlp16"):
         hmap.sim.Sensor("os1")
     lidar = hmap.sim.Sensor("vlp16")
     with pytest.raises(ValueError, match="T_world_sensor must be a 4x4"):
