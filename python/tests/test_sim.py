@@ -139,6 +139,12 @@ def test_simulate_sweep_and_own_scene(tmp_path):
         cli = np.fromfile(own / "velodyne" / f"{k:06d}.bin", dtype="<f4").reshape(-1, 4)[:, :3]
         assert len(cli) > 1000
         np.testing.assert_array_equal(rec["scans"][k], cli)
+    # A bad scene file: the CLI names the file, the library the JSON path, as before the driver moved.
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"objects": [{"type": "box", "size": [1, 2]}]}')
+    r = subprocess.run([str(cli_or_skip()), "simulate", "--scene-file", str(bad), "--out", str(tmp_path / "b")],
+                       capture_output=True, text=True)
+    assert r.returncode == 2 and f"{bad}: objects[0]" in r.stderr, r.stderr
     with pytest.raises(hmap.Error, match="--sweep needs a spinning lidar"):
         hmap.sim.simulate("office", "kinect", frames=1, sweep=True)
     with pytest.raises(hmap.Error, match="--stride must be at least 1"):
