@@ -9,6 +9,7 @@
 #include <cstring>
 #include <span>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "hmap/core/error.hpp"
@@ -150,6 +151,17 @@ inline py::array_t<float> points_array(const PointCloud& cloud) {
   py::array_t<float> out({static_cast<py::ssize_t>(cloud.size()), py::ssize_t{3}});
   if (!cloud.empty()) std::memcpy(out.mutable_data(), cloud.data(), cloud.size() * sizeof(Point3f));
   return out;
+}
+
+/// The same without a copy: `cloud` moves into the array's owner (a capsule), its floats become
+/// the array's buffer.
+inline py::array_t<float> points_array(PointCloud&& cloud) {
+  if (cloud.empty()) return points_array(static_cast<const PointCloud&>(cloud));
+  auto* owned = new PointCloud(std::move(cloud));
+  py::capsule owner(owned, [](void* p) { delete static_cast<PointCloud*>(p); });
+  return py::array_t<float>({static_cast<py::ssize_t>(owned->size()), py::ssize_t{3}},
+                            {static_cast<py::ssize_t>(sizeof(Point3f)), static_cast<py::ssize_t>(sizeof(float))},
+                            owned->front().data(), owner);
 }
 
 inline py::array_t<double> poses_array(const PoseList& poses) {

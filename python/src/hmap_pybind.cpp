@@ -197,7 +197,7 @@ py::array_t<float> recover(const Map& m, std::optional<double> z_step) {
       py::gil_scoped_release release;
       points = recover_points(map, step);
     }
-    return points_array(points);
+    return points_array(std::move(points));
   });
 }
 
@@ -771,7 +771,7 @@ PYBIND11_MODULE(_hmap, m) {
   py::module_ io = m.def_submodule("io", "Readers of point clouds and trajectories");
   io.def("read_cloud", [](const std::filesystem::path& path) {
     PointCloud cloud = [&] { py::gil_scoped_release release; return read_cloud(path); }();
-    return points_array(cloud);
+    return points_array(std::move(cloud));
   }, py::arg("path"),
      "A point cloud file by its extension (.pcd .ply .bin (KITTI) .xyz .txt .csv .pts .vtk) as an (N, 3) float32 "
      "array; non-finite points are dropped, as the CLI drops them.");

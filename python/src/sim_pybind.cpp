@@ -43,9 +43,9 @@ py::array_t<T> vector_of(const std::vector<T>& v) {
   return out;
 }
 
-py::dict scan_dict(const sim::SimulatedScan& s) {
+py::dict scan_dict(sim::SimulatedScan&& s) {
   py::dict d;
-  d["points"] = points_array(s.points_sensor);
+  d["points"] = points_array(std::move(s.points_sensor));
   d["channel"] = vector_of(s.channel);
   d["primitive"] = vector_of(s.primitive);
   std::vector<std::uint8_t> kind(s.kind.size());
@@ -165,7 +165,7 @@ py::dict simulate_dict(const py::handle& scene_arg, const std::string& sensor, s
   }
   py::dict d;
   py::list scans;
-  for (const PointCloud& c : rec.scans) scans.append(points_array(c));
+  for (PointCloud& c : rec.scans) scans.append(points_array(std::move(c)));
   d["scans"] = scans;
   if (rec.point_times.empty()) {
     d["point_times"] = py::none();
@@ -196,9 +196,9 @@ py::dict simulate_dict(const py::handle& scene_arg, const std::string& sensor, s
     imu["accel"] = accel;
     d["imu"] = imu;
   }
-  d["truth_surface"] = points_array(rec.truth_surface);
-  d["truth_ground"] = points_array(rec.truth_ground);
-  d["truth_seen"] = points_array(rec.truth_seen);
+  d["truth_surface"] = points_array(std::move(rec.truth_surface));
+  d["truth_ground"] = points_array(std::move(rec.truth_ground));
+  d["truth_seen"] = points_array(std::move(rec.truth_seen));
   d["points"] = rec.points;
   return d;
 }
@@ -224,7 +224,7 @@ void bind_sim(py::module_& m) {
           py::gil_scoped_release release;
           points = self.sample_surface(spacing, rng, t);
         }
-        return points_array(points);
+        return points_array(std::move(points));
       }, py::arg("spacing"), py::arg("seed") = 1, py::arg("t") = 0.0,
          "Points on every surface about `spacing` [m] apart, as the scene stands at time t [s]: (N, 3) float32.")
       .def_property_readonly("bounds", [](const sim::Scene& self) {
@@ -273,7 +273,7 @@ void bind_sim(py::module_& m) {
           const std::scoped_lock lock(self.mutex);
           scan = std::visit([&](auto& x) { return x.scan(scene, T, t); }, self.sensor);
         }
-        return scan_dict(scan);
+        return scan_dict(std::move(scan));
       }, py::arg("scene"), py::arg("T_world_sensor"), py::arg("t") = 0.0,
          "One scan of `scene` (at time t [s]) from the 4x4 pose T_world_sensor, without the GIL. Returns a dict: points "
          "((N, 3) float32, sensor frame: x forward, y left, z up), channel (ring / image row / sweep step, uint16), "
@@ -289,7 +289,7 @@ void bind_sim(py::module_& m) {
           const std::scoped_lock lock(self.mutex);
           scan = lidar->sweep(scene, [&](double t) { return sim::pose_at(path, t); }, t0);
         }
-        return scan_dict(scan);
+        return scan_dict(std::move(scan));
       }, py::arg("scene"), py::arg("trajectory"), py::arg("t0"),
          "One revolution (sweep_period, 0.1 s) while the sensor moves along `trajectory` from time t0 [s], as "
          "`hmap simulate --sweep`: each column in the sensor frame of its firing time, `time` [s] per point from t0.");

@@ -174,6 +174,20 @@ def test_noise_free_vlp16_over_a_plane_hand_computed():
     np.testing.assert_allclose(horizontal, expected, rtol=1e-4)
 
 
+def test_points_come_out_without_a_copy():
+    # The library's point vector becomes the array's buffer (owned by a capsule), C-contiguous.
+    scan = hmap.sim.Sensor("vlp16").scan(hmap.sim.Scene("office"), hmap.sim.diff_drive_path(hmap.sim.route("office")).poses[0])
+    pts = scan["points"]
+    assert not pts.flags.owndata and type(pts.base).__name__ == "PyCapsule"
+    assert pts.flags.c_contiguous and pts.strides == (12, 4) and len(pts) > 1000
+    rec = hmap.sim.simulate("office", frames=1, truth_spacing=1.0)
+    assert all(not a.flags.owndata for a in rec["scans"] + [rec["truth_seen"], rec["truth_surface"]])
+    far = np.eye(4)
+    far[2, 3] = 100.0                                       # 100 m above the plane, the Kinect reaches 4.5 m
+    empty = hmap.sim.Sensor("kinect").scan(hmap.sim.Scene.from_json(FLAT), far)["points"]
+    assert empty.shape == (0, 3) and empty.dtype == np.float32
+
+
 def test_fixed_seeds_give_identical_arrays():
     scene = hmap.sim.Scene("boxes")
     T = np.eye(4)
