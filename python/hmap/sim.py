@@ -22,6 +22,7 @@ Scene = _sim.Scene
 Sensor = _sim.Sensor
 Trajectory = _sim.Trajectory
 scene_names = _sim.scene_names
+kind_names = _sim.kind_names
 route = _sim.route
 car_path = _sim.car_path
 diff_drive_path = _sim.diff_drive_path
@@ -29,5 +30,5 @@ noisy_odometry = _sim.noisy_odometry
 write_sequence = _sim.write_sequence
 simulate = _sim.simulate
 
-__all__ = ["Scene", "Sensor", "Trajectory", "scene_names", "route", "car_path", "diff_drive_path", "noisy_odometry",
+__all__ = ["Scene", "Sensor", "Trajectory", "scene_names", "kind_names", "route", "car_path", "diff_drive_path", "noisy_odometry",
            "write_sequence", "simulate"]

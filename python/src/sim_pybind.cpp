@@ -118,6 +118,9 @@ void write_sequence(const std::filesystem::path& dir, const py::sequence& frames
   const auto t = py::array_t<double, py::array::forcecast>::ensure(times);
   if (!t || t.ndim() != 1) throw py::value_error("times must be a 1-D array of numbers, one per frame");
   std::vector<double> stamps(t.data(), t.data() + t.shape(0));
+  for (std::size_t k = 0; k < stamps.size(); ++k) {
+    if (!std::isfinite(stamps[k])) throw py::value_error(format("times: element %zu is not finite", k));
+  }
   const PoseList odom = odometry.is_none() ? PoseList() : poses_of(odometry, "odometry");
   const PointCloud truth_cloud = truth_points.is_none() ? PointCloud() : cloud_of(truth_points, "truth_points");
   std::vector<std::vector<float>> per_point;
@@ -209,6 +212,13 @@ void bind_sim(py::module_& m) {
   py::module_ s = m.def_submodule("sim", "The simulator: built-in scenes, sensors, scripted paths, noisy odometry");
 
   s.def("scene_names", &sim::builtin_scene_names, "The built-in scenes: boxes, office, parking.");
+  s.def("kind_names", [] {
+    std::vector<std::string> names;
+    for (int k = 0; k <= static_cast<int>(sim::SurfaceKind::kOther); ++k) {
+      names.emplace_back(sim::to_string(static_cast<sim::SurfaceKind>(k)));
+    }
+    return names;
+  }, "What each value of a scan's `kind` stands for: kind_names()[scan['kind'][i]] ('ground', 'curb', 'wall', ...).");
 
   py::class_<sim::Scene, std::shared_ptr<sim::Scene>>(s, "Scene", "A scene of solids that sensors are simulated in.")
       .def(py::init([](const std::string& name) { return std::make_shared<sim::Scene>(sim::make_scene(name)); }),

@@ -169,6 +169,9 @@ def test_noise_free_vlp16_over_a_plane_hand_computed():
     np.testing.assert_allclose(pts[:, 2], -2.0, atol=1e-4)
     rings = scan["channel"]
     assert set(rings.tolist()) == set(range(7))
+    kinds = hmap.sim.kind_names()
+    assert kinds[0] == "ground" and "wall" in kinds
+    assert set(scan["kind"].tolist()) == {kinds.index("ground")}  # the plane's "kind": "ground"
     horizontal = np.hypot(pts[:, 0], pts[:, 1])
     expected = 2.0 / np.tan(np.radians(15.0 - 2.0 * rings))
     np.testing.assert_allclose(horizontal, expected, rtol=1e-4)
@@ -218,6 +221,8 @@ def test_write_sequence_reads_back(tmp_path):
         np.testing.assert_allclose(pose, truth, atol=1e-12)
         assert stamp == pytest.approx(t, abs=1e-9)
     np.testing.assert_allclose(read_kitti_poses(tmp_path / "seq" / "odometry.txt"), odometry, atol=1e-12)
+    with pytest.raises(ValueError, match="times: element 1 is not finite"):
+        hmap.sim.write_sequence(tmp_path / "nan", frames[:2], path.poses[:2], [0.0, math.nan])
     with pytest.raises(hmap.Error):  # the library's: counts differ
         hmap.sim.write_sequence(tmp_path / "bad", frames, path.poses[:2], path.times[:2])
 
