@@ -14,7 +14,7 @@
 #include "hmap/io/sequence_writer.hpp"
 #include "hmap/maps/mapper.hpp"
 #include "render.hpp"
-#include "simulation.hpp"
+#include "hmap/sim/simulation.hpp"
 
 namespace hmap::cli {
 
@@ -47,14 +47,14 @@ std::string run_demo_into(const DemoOptions& o, const std::filesystem::path& dir
   const auto t_start = Clock::now();
 
   // 1. Simulate: the scene, the sensor along the scripted path, the truth.
-  SimulationSpec spec;
+  sim::SimulationSpec spec;
   spec.scene = o.scene;
   spec.sensor = o.sensor;
   spec.seed = o.seed;
   spec.frames = o.frames;
   std::optional<Progress> sim_progress;
   const auto t_sim = Clock::now();
-  const SimulatedRecording rec = simulate(spec, [&](std::size_t done, std::size_t n, std::size_t) {
+  const sim::SimulatedRecording rec = sim::simulate(spec, [&](std::size_t done, std::size_t n, std::size_t) {
     if (!sim_progress) sim_progress.emplace("simulating", n);
     sim_progress->update(done, ms_since(t_sim) / static_cast<double>(done));
   });
@@ -95,7 +95,7 @@ std::string run_demo_into(const DemoOptions& o, const std::filesystem::path& dir
 
   // 5. Report.
   const MapStats st = map.stats();
-  const double length = path_length(rec.T_world_sensor);
+  const double length = sim::path_length(rec.T_world_sensor);
   std::ostringstream r;
   r.setf(std::ios::fixed);
   r.precision(3);

@@ -73,26 +73,6 @@ GridChoice choose_grid(MapFile& file, const ExportOptions& o) {
   return choice;
 }
 
-/// The free space an OctoMap user can plan in: where the exported 2D grid is free by OctoMap's own
-/// rule (p < 0.5, as OcTree::isNodeOccupied reads the leaves), the band from the local ground plane
-/// up to occupancy.z_plus above it (the robot's height, which eq. (4) judged free). Cells without a
-/// ground patch within reach are left unknown.
-std::vector<FreeBand> free_bands(const GridChoice& choice, const Params& params) {
-  std::vector<FreeBand> bands;
-  if (choice.ground.empty()) return bands;
-  const TraversabilityLayers layers = traversability(choice.grid, GroundModel(choice.ground), TraversabilityParams{});
-  choice.grid.for_each_cell([&](const CellKey& key, float l) {
-    if (!(l < 0.0F)) return;
-    const std::int64_t col = static_cast<std::int64_t>(key.i) - layers.i_min;
-    const std::int64_t row = static_cast<std::int64_t>(key.j) - layers.j_min;
-    if (col < 0 || row < 0 || col >= layers.width || row >= layers.height) return;
-    const float z = layers.ground_z[layers.index(static_cast<std::int32_t>(col), static_cast<std::int32_t>(row))];
-    if (std::isnan(z)) return;
-    bands.push_back({key, static_cast<double>(z), static_cast<double>(z) + params.occupancy.z_plus});
-  });
-  return bands;
-}
-
 /// --costmap and --geotiff: the traversability layers of the chosen grid.
 /// The grid is read as --pgm writes it (`reading`: GridReading::for_map), so lethal and free agree.
 void export_traversability(const GridChoice& choice, const ExportOptions& o, const GridReading& reading) {
@@ -178,7 +158,7 @@ void run_export(const ExportOptions& o) {
   }
   if (o.ply.empty() && o.bt.empty()) return;
   if (!o.bt.empty()) {
-    const std::vector<FreeBand> free = chosen ? free_bands(*chosen, map.params()) : std::vector<FreeBand>{};
+    const std::vector<FreeBand> free = chosen ? free_bands(chosen->grid, chosen->ground, map.params().occupancy.z_plus) : std::vector<FreeBand>{};
     const OctomapExportStats bt = write_octomap_bt(o.bt, map, free, memory_budget());
     std::printf("wrote %zu occupied and %zu free voxels of %.3f m to %s: %zu OctoMap leaves after pruning%s\n",
                 bt.occupied_voxels, bt.free_voxels, map.cell_size(), o.bt.c_str(), bt.leaves,

@@ -7,14 +7,18 @@
 #include "hmap/io/imu_text.hpp"
 #include "hmap/io/ply_export.hpp"
 #include "hmap/io/sequence_writer.hpp"
-#include "simulation.hpp"
+#include "hmap/io/read_support.hpp"
+#include "hmap/sim/builtin_scenes.hpp"
+#include "hmap/sim/scene_json.hpp"
+#include "hmap/sim/simulation.hpp"
 
 namespace hmap::cli {
 
 namespace {
 
 struct SimulateOptions {
-  SimulationSpec spec;
+  sim::SimulationSpec spec;
+  std::string scene_file;  ///< a JSON scene instead of the built-in spec.scene
   std::string out;
 };
 
@@ -24,11 +28,23 @@ void run_simulate(const SimulateOptions& o) {
   Progress progress("simulating", 1);
   const auto t0 = Clock::now();
   std::size_t total = 0;
-  const SimulatedRecording rec = simulate(o.spec, [&](std::size_t done, std::size_t n, std::size_t points) {
+  // The scene file is read here (the library takes the scene); its errors name the file.
+  const sim::Scene scene = [&] {
+    if (o.scene_file.empty()) return sim::make_scene(o.spec.scene);
+    const std::string text = detail::read_file_bytes(o.scene_file, std::size_t{64} << 20);
+    try {
+      return sim::scene_from_json(text);
+    } catch (const Error& e) {
+      throw InputError(o.scene_file, "", e.what());
+    }
+  }();
+  sim::SimulationSpec spec = o.spec;
+  if (!o.scene_file.empty()) spec.scene.clear();  // a scene of our own: the office robot's route
+  const sim::SimulatedRecording rec = sim::simulate(spec, scene, [&](std::size_t done, std::size_t n, std::size_t points) {
     if (total == 0) {
       // Said before the rest of the work (the office at full rate is 1.7 GB), and held in memory
       // until written: checked against the memory budget.
-      const double bytes = recording_bytes(points, done, n);
+      const double bytes = sim::recording_bytes(points, done, n);
       std::printf("simulate: %zu frames of about %s points: about %s to write (as much memory while simulating); "
                   "--frames N or --stride N make it smaller.\n",
                   n, human_count(static_cast<double>(points) / static_cast<double>(done)).c_str(), human_bytes(bytes).c_str());
@@ -47,11 +63,11 @@ void run_simulate(const SimulateOptions& o) {
     write_points_ply(dir / "truth_ground.ply", rec.truth_ground);
     if (!rec.imu.empty()) write_imu_text(dir / "imu.txt", rec.imu);
   });
-  const double length = path_length(rec.T_world_sensor);
+  const double length = sim::path_length(rec.T_world_sensor);
   std::printf("Simulated %zu %s %s of '%s' (seed %llu) along %.1f m in %.1f s: %s points. Wrote %s: "
               "velodyne/*.%s, poses.txt (truth%s), times.txt, odometry.txt (noisy), truth.ply (%s surface "
               "points every %.2f m; its walkable ground in truth_ground.ply), truth_seen.ply (%s noise-free returns).\n",
-              rec.scans.size(), o.spec.sensor.c_str(), o.spec.sweep ? "sweeps" : "frames", o.spec.scene_file.empty() ? o.spec.scene.c_str() : o.spec.scene_file.c_str(),
+              rec.scans.size(), o.spec.sensor.c_str(), o.spec.sweep ? "sweeps" : "frames", o.scene_file.empty() ? o.spec.scene.c_str() : o.scene_file.c_str(),
               static_cast<unsigned long long>(o.spec.seed), length, ms_since(t0) / 1000.0,
               human_count(static_cast<double>(rec.points)).c_str(), o.out.c_str(), o.spec.sweep ? "pcd" : "bin",
               o.spec.sweep ? " at each sweep's start; each point's time t [s] from it is in the .pcd" : "",
@@ -68,7 +84,7 @@ void add_simulate_command(CLI::App& app) {
   cmd->add_option("--scene", opts->spec.scene, "Built-in scene: office, parking, boxes")
       ->check(CLI::IsMember({"office", "parking", "boxes"}))
       ->capture_default_str();
-  cmd->add_option("--scene-file", opts->spec.scene_file, "A JSON scene description instead of a built-in scene");
+  cmd->add_option("--scene-file", opts->scene_file, "A JSON scene description instead of a built-in scene");
   cmd->add_option("--sensor", opts->spec.sensor, "vlp16, hdl64, kinect, utm30lx-tilt, utm30lx-yaw")
       ->check(CLI::IsMember({"vlp16", "hdl64", "kinect", "utm30lx-tilt", "utm30lx-yaw"}))
       ->capture_default_str();

@@ -1,10 +1,16 @@
-"""Readers of the formats the hmap CLI reads, returning numpy arrays."""
+"""Readers of the formats the hmap CLI reads, returning numpy arrays, and the writers of
+``hmap export`` (PLY, PGM + YAML, OctoMap .bt) taking an ``hmap.Map``, and PNG from an array."""
 
 from ._hmap import io as _io
 
 read_cloud = _io.read_cloud
 read_poses = _io.read_poses
 open_kitti = _io.open_kitti
+write_ply = _io.write_ply
+write_points_ply = _io.write_points_ply
+write_pgm = _io.write_pgm
+write_bt = _io.write_bt
+write_png = _io.write_png
 
 
 def kitti_sequence(dir, max_scans=None):
@@ -25,4 +31,5 @@ def kitti_sequence(dir, max_scans=None):
                None if times is None else float(times[k]))
 
 
-__all__ = ["read_cloud", "read_poses", "open_kitti", "kitti_sequence"]
+__all__ = ["read_cloud", "read_poses", "open_kitti", "kitti_sequence", "write_ply", "write_points_ply", "write_pgm",
+           "write_bt", "write_png"]

@@ -27,174 +27,26 @@
 #include "hmap/io/config.hpp"
 #include "hmap/io/hmap_file.hpp"
 #include "hmap/io/kitti.hpp"
+#include "hmap/io/octomap_export.hpp"
+#include "hmap/io/pgm_export.hpp"
+#include "hmap/io/ply_export.hpp"
+#include "hmap/io/png.hpp"
+#include "hmap/occupancy/exported_grid.hpp"
+#include "hmap/occupancy/grid_reading.hpp"
 #include "hmap/io/poses.hpp"
 #include "hmap/maps/mapper.hpp"
 #include "hmap/occupancy/hybrid_mapper.hpp"
 #include "hmap/slam/hmap_slam.hpp"
+#include "arrays.hpp"
 
 namespace py = pybind11;
 
 namespace hmap::python {
 
+void bind_sim(py::module_& m);   // sim_pybind.cpp
+void bind_pvox(py::module_& m);  // pvox_pybind.cpp
+
 namespace {
-
-// ---------------------------------------------------------------------------------------------
-// Arrays in
-
-/// What to do with points holding NaN or infinity.
-enum class NonFinite { kRaise, kDrop };
-
-NonFinite non_finite_mode(const std::string& text) {
-  if (text == "raise") return NonFinite::kRaise;
-  if (text == "drop") return NonFinite::kDrop;
-  throw py::value_error("non_finite must be 'raise' or 'drop', got '" + text + "'");
-}
-
-/// `a` checked to be an (N, 3) array of float32 or float64; `what` names it in messages.
-py::array checked_points(const py::handle& a, const char* what) {
-  if (!py::isinstance<py::array>(a)) {
-    throw py::value_error(format("%s must be a numpy array of shape (N, 3), got %s", what,
-                                 std::string(py::str(py::type::handle_of(a).attr("__name__"))).c_str()));
-  }
-  auto arr = py::reinterpret_borrow<py::array>(a);
-  if (arr.ndim() != 2 || arr.shape(1) != 3) {
-    std::string shape = "(";
-    for (py::ssize_t d = 0; d < arr.ndim(); ++d) shape += (d ? ", " : "") + std::to_string(arr.shape(d));
-    shape += arr.ndim() == 1 ? ",)" : ")";
-    throw py::value_error(format("%s must have shape (N, 3), got %s", what, shape.c_str()));
-  }
-  if (!arr.dtype().is(py::dtype::of<float>()) && !arr.dtype().is(py::dtype::of<double>())) {
-    throw py::value_error(format("%s must hold float32 or float64, got dtype %s", what,
-                                 std::string(py::str(arr.dtype())).c_str()));
-  }
-  return arr;
-}
-
-/// Points of an (N, 3) array, viewed without a copy when it is C-contiguous float32 (the layout
-/// of std::vector<Point3f>), else converted into `storage`.
-std::span<const Point3f> points_of(const py::array& arr, PointCloud& storage, NonFinite mode, const char* what) {
-  static_assert(sizeof(Point3f) == 3 * sizeof(float), "Point3f must be three packed floats");
-  const auto n = static_cast<std::size_t>(arr.shape(0));
-  std::span<const Point3f> points;
-  if (arr.dtype().is(py::dtype::of<float>()) && (arr.flags() & py::array::c_style) != 0) {
-    points = {static_cast<const Point3f*>(arr.data()), n};
-  } else if (arr.dtype().is(py::dtype::of<float>())) {
-    const auto r = py::reinterpret_borrow<py::array_t<float>>(arr).unchecked<2>();
-    storage.resize(n);
-    for (std::size_t i = 0; i < n; ++i) storage[i] = {r(i, 0), r(i, 1), r(i, 2)};
-    points = storage;
-  } else {
-    const auto r = py::reinterpret_borrow<py::array_t<double>>(arr).unchecked<2>();
-    storage.resize(n);
-    for (std::size_t i = 0; i < n; ++i) {
-      storage[i] = {static_cast<float>(r(i, 0)), static_cast<float>(r(i, 1)), static_cast<float>(r(i, 2))};
-    }
-    points = storage;
-  }
-  if (mode == NonFinite::kRaise) {
-    // Over the points as the library reads them: a float64 beyond float's range is infinite too.
-    for (std::size_t i = 0; i < n; ++i) {
-      if (points[i].allFinite()) continue;
-      const Point3f& p = points[i];
-      throw py::value_error(format("%s: row %zu is not finite (%g, %g, %g); pass non_finite='drop' to drop such "
-                                   "points and count them, as the CLI does",
-                                   what, i, static_cast<double>(p.x()), static_cast<double>(p.y()),
-                                   static_cast<double>(p.z())));
-    }
-  }
-  return points;
-}
-
-/// A 4×4 array (any real dtype) as a rigid pose, checked by the library (rigid_pose).
-Pose pose_of(const py::handle& obj, const char* what) {
-  // ensure() converts any array-like of numbers and gives a null array for anything else.
-  const auto m = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(obj);
-  if (!m || m.ndim() != 2 || m.shape(0) != 4 || m.shape(1) != 4) {
-    throw py::value_error(format("%s must be a 4x4 matrix of numbers", what));
-  }
-  Eigen::Matrix4d matrix;
-  for (int r = 0; r < 4; ++r)
-    for (int c = 0; c < 4; ++c) matrix(r, c) = m.at(r, c);
-  try {
-    return rigid_pose(matrix);
-  } catch (const Error& e) {
-    throw py::value_error(std::string(what) + ": " + e.what());
-  }
-}
-
-/// An (N, 4, 4) array (any real dtype) as N rigid poses; `what` names it in messages.
-PoseList poses_of(const py::handle& obj, const char* what) {
-  const auto m = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(obj);
-  if (!m || m.ndim() != 3 || m.shape(1) != 4 || m.shape(2) != 4) {
-    throw py::value_error(format("%s must be an (N, 4, 4) array of poses", what));
-  }
-  const auto r = m.unchecked<3>();
-  PoseList poses;
-  for (py::ssize_t k = 0; k < r.shape(0); ++k) {
-    Eigen::Matrix4d matrix;
-    for (int i = 0; i < 4; ++i)
-      for (int j = 0; j < 4; ++j) matrix(i, j) = r(k, i, j);
-    try {
-      poses.push_back(rigid_pose(matrix));
-    } catch (const Error& e) {
-      throw py::value_error(format("%s[%zd]: %s", what, k, e.what()));
-    }
-  }
-  return poses;
-}
-
-/// Per-point times [s] for `n` points: None gives none; else a 1-D array of n finite numbers.
-std::vector<float> times_of(const py::handle& obj, std::size_t n) {
-  std::vector<float> times;
-  if (obj.is_none()) return times;
-  const auto t = py::array_t<double, py::array::forcecast>::ensure(obj);
-  if (!t || t.ndim() != 1 || static_cast<std::size_t>(t.shape(0)) != n) {
-    throw py::value_error(format("times must be a 1-D array of %zu numbers, one per point", n));
-  }
-  const auto r = t.unchecked<1>();
-  times.resize(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    const double v = r(static_cast<py::ssize_t>(i));
-    if (!std::isfinite(v)) throw py::value_error(format("times: element %zu is not finite (%g)", i, v));
-    times[i] = static_cast<float>(v);
-  }
-  return times;
-}
-
-// ---------------------------------------------------------------------------------------------
-// Arrays out
-
-py::array_t<float> points_array(const PointCloud& cloud) {
-  py::array_t<float> out({static_cast<py::ssize_t>(cloud.size()), py::ssize_t{3}});
-  if (!cloud.empty()) std::memcpy(out.mutable_data(), cloud.data(), cloud.size() * sizeof(Point3f));
-  return out;
-}
-
-py::array_t<double> poses_array(const PoseList& poses) {
-  py::array_t<double> out({static_cast<py::ssize_t>(poses.size()), py::ssize_t{4}, py::ssize_t{4}});
-  auto w = out.mutable_unchecked<3>();
-  for (std::size_t k = 0; k < poses.size(); ++k) {
-    const Eigen::Matrix4d m = poses[k].matrix();
-    for (int r = 0; r < 4; ++r)
-      for (int c = 0; c < 4; ++c) w(static_cast<py::ssize_t>(k), r, c) = m(r, c);
-  }
-  return out;
-}
-
-py::array_t<double> matrix_array(const Pose& T) {
-  py::array_t<double> out({py::ssize_t{4}, py::ssize_t{4}});
-  auto w = out.mutable_unchecked<2>();
-  const Eigen::Matrix4d m = T.matrix();
-  for (int r = 0; r < 4; ++r)
-    for (int c = 0; c < 4; ++c) w(r, c) = m(r, c);
-  return out;
-}
-
-py::array_t<double> vector_array(const Eigen::Vector3d& v) {
-  py::array_t<double> out(3);
-  for (int d = 0; d < 3; ++d) out.mutable_at(d) = v[d];
-  return out;
-}
 
 py::dict scan_stats_dict(const ScanStats& s) {
   py::dict d;
@@ -345,7 +197,7 @@ py::array_t<float> recover(const Map& m, std::optional<double> z_step) {
       py::gil_scoped_release release;
       points = recover_points(map, step);
     }
-    return points_array(points);
+    return points_array(std::move(points));
   });
 }
 
@@ -634,6 +486,108 @@ py::dict kitti_dict(const std::filesystem::path& dir, std::optional<std::size_t>
   return d;
 }
 
+// ---------------------------------------------------------------------------------------------
+// Writers: `hmap export`'s files from a Map
+
+/// The grid `hmap export` writes (hmap/occupancy/exported_grid.hpp) for a map and its grid choice.
+ExportedGrid exported_grid(const HMap& map, const OccupancyGrid* grid, std::span<const GroundPatch> ground,
+                           const std::string& source) {
+  const std::optional<GridSource> parsed = parse_grid_source(source);
+  if (!parsed) throw py::value_error("grid must be 'both', 'kept' or 'judged', got '" + source + "'");
+  ExportGridParams p;
+  p.source = *parsed;
+  ExportedGrid choice = export_grid(map, ground, grid, p);
+  if (!choice.ground_found) {
+    throw Error(format("no ground found near the hint (%g, %g, %g): the map holds no floor to judge its columns on",
+                       choice.hint.x(), choice.hint.y(), choice.hint.z()));
+  }
+  return choice;
+}
+
+void write_ply(const Map& m, const std::filesystem::path& path, bool points, std::optional<double> z_step) {
+  m.read([&](const HMap& map, const OccupancyGrid*, std::span<const GroundPatch>) {
+    if (!points) {
+      py::gil_scoped_release release;
+      write_hvoxel_boxes_ply(path, map);
+      return 0;
+    }
+    const double step = z_step.value_or(map.cell_size());  // export --points' default
+    if (!(step >= 1e-3 && step <= 100.0)) throw py::value_error(format("z_step = %g m is out of its range [0.001, 100] m", step));
+    py::gil_scoped_release release;
+    write_points_ply(path, recover_points(map, step, MemoryBudget{}));
+    return 0;
+  });
+}
+
+py::dict write_pgm(const Map& m, const std::filesystem::path& stem, const std::string& source) {
+  return m.read([&](const HMap& map, const OccupancyGrid* grid, std::span<const GroundPatch> ground) {
+    std::size_t occupied = 0, free_cells = 0;
+    std::string what;
+    {
+      py::gil_scoped_release release;
+      const ExportedGrid choice = exported_grid(map, grid, ground, source);
+      PgmExportParams pgm;
+      pgm.reading = GridReading::for_map(map.params().occupancy);  // as `hmap export --pgm` reads the grid
+      write_pgm_map(stem, choice.grid, pgm);
+      choice.grid.for_each_cell([&](const CellKey&, float l) {
+        const CellClass c = pgm.reading.classify(probability(l));
+        occupied += c == CellClass::kOccupied ? 1 : 0;
+        free_cells += c == CellClass::kFree ? 1 : 0;
+      });
+      what = choice.what;
+    }
+    py::dict d;
+    d["pgm"] = pgm_stem(stem).string() + ".pgm";
+    d["yaml"] = pgm_stem(stem).string() + ".yaml";
+    d["occupied"] = occupied;
+    d["free"] = free_cells;
+    d["grid"] = what;
+    return d;
+  });
+}
+
+py::dict write_bt(const Map& m, const std::filesystem::path& path) {
+  return m.read([&](const HMap& map, const OccupancyGrid* grid, std::span<const GroundPatch> ground) {
+    OctomapExportStats s;
+    {
+      py::gil_scoped_release release;
+      // Free leaves from the exported grid when the map holds one and its ground, as `hmap export --bt`.
+      std::vector<FreeBand> free;
+      if (grid != nullptr && grid->known_cells() > 0 && !ground.empty()) {
+        const ExportedGrid choice = exported_grid(map, grid, ground, "both");
+        free = free_bands(choice.grid, choice.ground, map.params().occupancy.z_plus);
+      }
+      s = write_octomap_bt(path, map, free, MemoryBudget{});
+    }
+    py::dict d;
+    d["occupied_voxels"] = s.occupied_voxels;
+    d["free_voxels"] = s.free_voxels;
+    d["leaves"] = s.leaves;
+    return d;
+  });
+}
+
+void write_png_array(const std::filesystem::path& path, const py::handle& image) {
+  if (!py::isinstance<py::array>(image)) throw py::value_error("image must be a numpy array of shape (H, W, 3), dtype uint8");
+  const auto arr = py::reinterpret_borrow<py::array>(image);
+  if (arr.ndim() != 3 || arr.shape(2) != 3 || arr.shape(0) < 1 || arr.shape(1) < 1) {
+    std::string shape = "(";
+    for (py::ssize_t d = 0; d < arr.ndim(); ++d) shape += (d ? ", " : "") + std::to_string(arr.shape(d));
+    throw py::value_error("image must have shape (H, W, 3) with H, W >= 1, got " + shape + (arr.ndim() == 1 ? ",)" : ")"));
+  }
+  if (!arr.dtype().is(py::dtype::of<std::uint8_t>())) {
+    throw py::value_error("image must hold uint8, got dtype " + std::string(py::str(arr.dtype())));
+  }
+  if (arr.shape(0) > 1 << 16 || arr.shape(1) > 1 << 16) throw py::value_error("image is larger than 65536 pixels on a side");
+  const auto c = py::array_t<std::uint8_t, py::array::c_style | py::array::forcecast>::ensure(arr);
+  RgbImage img;
+  img.width = static_cast<int>(arr.shape(1));
+  img.height = static_cast<int>(arr.shape(0));
+  img.rgb.assign(c.data(), c.data() + c.size());
+  py::gil_scoped_release release;
+  write_png(path, img);
+}
+
 }  // namespace
 
 PYBIND11_MODULE(_hmap, m) {
@@ -817,7 +771,7 @@ PYBIND11_MODULE(_hmap, m) {
   py::module_ io = m.def_submodule("io", "Readers of point clouds and trajectories");
   io.def("read_cloud", [](const std::filesystem::path& path) {
     PointCloud cloud = [&] { py::gil_scoped_release release; return read_cloud(path); }();
-    return points_array(cloud);
+    return points_array(std::move(cloud));
   }, py::arg("path"),
      "A point cloud file by its extension (.pcd .ply .bin (KITTI) .xyz .txt .csv .pts .vtk) as an (N, 3) float32 "
      "array; non-finite points are dropped, as the CLI drops them.");
@@ -826,6 +780,33 @@ PYBIND11_MODULE(_hmap, m) {
   io.def("open_kitti", &kitti_dict, py::arg("dir"), py::arg("max_scans") = py::none(),
          "A KITTI folder listed, not read: {'scans': paths, 'T_map_scan': (N, 4, 4) or None (poses.txt turned into "
          "scanner poses by calib.txt's Tr), 'T_cam_velo': 4x4 or None, 'times': (N,) or None}.");
+
+  io.def("write_ply", &write_ply, py::arg("map"), py::arg("path"), py::kw_only(), py::arg("points") = false,
+         py::arg("z_step") = py::none(),
+         "`hmap export --ply`: each HVoxel as a box coloured by height (binary PLY, MeshLab, CloudCompare, Open3D); "
+         "points=True: the recovered points instead, every z_step [m] (default: the cell size) up each HVoxel "
+         "(`--points`). Written atomically; equal maps give equal files.");
+  io.def("write_points_ply", [](const std::filesystem::path& path, const py::handle& points) {
+    const py::array arr = checked_points(points, "points");
+    PointCloud storage;
+    const std::span<const Point3f> pts = points_of(arr, storage, NonFinite::kRaise, "points");
+    const PointCloud cloud(pts.begin(), pts.end());
+    py::gil_scoped_release release;
+    write_points_ply(path, cloud);
+  }, py::arg("path"), py::arg("points"), "An (N, 3) array as a PLY point cloud coloured by height, atomically.");
+  io.def("write_pgm", &write_pgm, py::arg("map"), py::arg("stem"), py::kw_only(), py::arg("grid") = "both",
+         "`hmap export --pgm`: the 2D occupancy grid as STEM.pgm + STEM.yaml (ROS map_server, Nav2); grid: "
+         "'both', 'kept' or 'judged' (`--grid`); a map without a kept grid has one derived from its columns. "
+         "Returns {'pgm', 'yaml' (paths), 'occupied', 'free' (cells as written), 'grid' (which grid)}.");
+  io.def("write_bt", &write_bt, py::arg("map"), py::arg("path"),
+         "`hmap export --bt`: the HVoxels as occupied OctoMap leaves at the cell size (octovis), the 2D grid's "
+         "free cells as free leaves from the ground up to occupancy.z_plus when the map holds a grid and ground "
+         "patches. Returns {'occupied_voxels', 'free_voxels', 'leaves'}.");
+  io.def("write_png", &write_png_array, py::arg("path"), py::arg("image"),
+         "An (H, W, 3) uint8 RGB image (row 0 the top) as a PNG file, atomically.");
+
+  bind_sim(m);
+  bind_pvox(m);
 }
 
 }  // namespace hmap::python

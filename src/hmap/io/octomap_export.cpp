@@ -15,6 +15,7 @@
 #include "hmap/core/error.hpp"
 #include "hmap/core/format.hpp"
 #include "hmap/io/atomic_file.hpp"
+#include "hmap/occupancy/traversability.hpp"
 
 namespace hmap {
 
@@ -149,6 +150,23 @@ OctomapExportStats write_octomap_bt(const std::filesystem::path& path, const HMa
     if (!ok) throw Error("OctoMap could not serialise the tree");
   });
   return stats;
+}
+
+std::vector<FreeBand> free_bands(const OccupancyGrid& grid, std::span<const GroundPatch> ground, double z_plus) {
+  std::vector<FreeBand> bands;
+  if (ground.empty()) return bands;
+  const TraversabilityLayers layers =
+      traversability(grid, GroundModel(std::vector<GroundPatch>(ground.begin(), ground.end())), TraversabilityParams{});
+  grid.for_each_cell([&](const CellKey& key, float l) {
+    if (!(l < 0.0F)) return;
+    const std::int64_t col = static_cast<std::int64_t>(key.i) - layers.i_min;
+    const std::int64_t row = static_cast<std::int64_t>(key.j) - layers.j_min;
+    if (col < 0 || row < 0 || col >= layers.width || row >= layers.height) return;
+    const float z = layers.ground_z[layers.index(static_cast<std::int32_t>(col), static_cast<std::int32_t>(row))];
+    if (std::isnan(z)) return;
+    bands.push_back({key, static_cast<double>(z), static_cast<double>(z) + z_plus});
+  });
+  return bands;
 }
 
 }  // namespace hmap

@@ -5,7 +5,9 @@
 #include <span>
 
 #include "hmap/core/budget.hpp"
+#include "hmap/ground/ground_patches.hpp"
 #include "hmap/maps/hmap.hpp"
+#include "hmap/occupancy/occupancy_grid.hpp"
 
 namespace hmap {
 
@@ -23,6 +25,12 @@ struct FreeBand {
   double z_low = 0.0;
   double z_high = 0.0;
 };
+
+/// The free space an OctoMap user can plan in: where `grid` is free by OctoMap's own rule (p < 0.5,
+/// as OcTree::isNodeOccupied reads the leaves), the band from the local ground plane (of `ground`)
+/// up to `z_plus` [m] above it (the robot's height, which eq. (4) judged free). Cells without a
+/// ground patch within reach are left out; no patches give no bands.
+[[nodiscard]] std::vector<FreeBand> free_bands(const OccupancyGrid& grid, std::span<const GroundPatch> ground, double z_plus);
 
 /// Writes every HVoxel as occupied OctoMap leaves at the map's cell size (each cell's column
 /// from z_min to z_max, one leaf per cell-size step), pruned, as a binary tree (.bt), atomically.

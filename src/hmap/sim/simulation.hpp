@@ -1,20 +1,40 @@
 #pragma once
-// A simulated recording: a built-in (or JSON) scene, a sensor, a scripted path, noisy scans,
-// the true poses, noisy odometry and the true geometry the sensor could see.
+// A simulated recording (`hmap simulate`, `hmap demo`, hmap.sim.simulate): a scene, a sensor, a
+// scripted path, noisy scans, the true poses, noisy odometry and the true geometry the sensor
+// could see. Pure: the caller reads a JSON scene file and writes the recording.
 
 #include <cstdint>
 #include <functional>
 #include <string>
+#include <variant>
 
 #include "hmap/core/imu.hpp"
 #include "hmap/core/types.hpp"
 #include "hmap/sim/scene.hpp"
+#include "hmap/sim/sensors.hpp"
 
-namespace hmap::cli {
+namespace hmap::sim {
+
+/// A simulated sensor of any kind.
+using AnySensor = std::variant<SpinningLidar, DepthCamera, LineScanner>;
+
+/// Whether a sensor's noise model is on.
+enum class SensorNoise : std::uint8_t {
+  kModelled,  ///< the device's range noise and dropouts
+  kNone,      ///< exact returns (the recording's truth_seen)
+};
+
+/// The sensors `hmap simulate --sensor` names.
+[[nodiscard]] std::vector<std::string> sensor_names();
+
+/// The sensor `name` (sensor_names(): the device presets of sensors.hpp) with noise seed `seed`.
+/// Throws hmap::Error listing the known names for any other.
+[[nodiscard]] AnySensor make_sensor(const std::string& name, std::uint64_t seed, SensorNoise noise = SensorNoise::kModelled);
 
 struct SimulationSpec {
-  std::string scene = "parking";   ///< built-in name
-  std::string scene_file;          ///< or a JSON scene description (then `scene` is ignored)
+  /// The built-in scene whose path is driven (parking: the car route; boxes: along the enclosure);
+  /// any other name, or "" for a scene of the caller's (simulate(spec, scene)), the office robot's route.
+  std::string scene = "parking";
   std::string sensor = "vlp16";    ///< vlp16, hdl64, kinect, utm30lx-tilt, utm30lx-yaw
   std::size_t frames = 0;          ///< 0: the whole path
   std::size_t stride = 1;          ///< take every stride-th frame of the 10 Hz path
@@ -46,14 +66,20 @@ struct SimulatedRecording {
 /// Length of the path through the poses' positions [m].
 [[nodiscard]] double path_length(const PoseList& poses);
 
-/// Runs the simulation; `progress(done, total, points)` is called after each frame, with the
-/// points of the frames done so far (after the first: what the whole recording will weigh).
-[[nodiscard]] SimulatedRecording simulate(const SimulationSpec& spec,
-                                          const std::function<void(std::size_t, std::size_t, std::size_t)>& progress = {});
+using SimulationProgress = std::function<void(std::size_t, std::size_t, std::size_t)>;
+
+/// Runs the simulation in `scene`; `progress(done, total, points)` is called after each frame,
+/// with the points of the frames done so far (after the first: what the whole recording will
+/// weigh). Throws hmap::Error for a spec out of range (stride 0, an unknown sensor, ...).
+[[nodiscard]] SimulatedRecording simulate(const SimulationSpec& spec, const Scene& scene,
+                                          const SimulationProgress& progress = {});
+
+/// The same in the built-in scene spec.scene (make_scene).
+[[nodiscard]] SimulatedRecording simulate(const SimulationSpec& spec, const SimulationProgress& progress = {});
 
 /// The bytes a recording of `frames` frames will take on disk and in memory, from the points of
 /// its first `done` frames: each point a 16-byte KITTI record and a 12-byte truth_seen.ply vertex (the
 /// dense truth.ply comes on top).
 [[nodiscard]] double recording_bytes(std::size_t points_done, std::size_t done, std::size_t frames);
 
-}  // namespace hmap::cli
+}  // namespace hmap::sim

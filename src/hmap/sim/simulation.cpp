@@ -1,76 +1,73 @@
-#include "simulation.hpp"
+#include "hmap/sim/simulation.hpp"
 
 #include <algorithm>
-#include <fstream>
 #include <random>
-#include <sstream>
 #include <variant>
 
 #include "hmap/core/error.hpp"
-#include "hmap/io/read_support.hpp"
 #include "hmap/sim/builtin_scenes.hpp"
 #include "hmap/sim/imu_sim.hpp"
-#include "hmap/sim/scene_json.hpp"
 #include "hmap/sim/sensors.hpp"
 #include "hmap/sim/trajectory.hpp"
 
-namespace hmap::cli {
+namespace hmap::sim {
 
-namespace {
+std::vector<std::string> sensor_names() { return {"vlp16", "hdl64", "kinect", "utm30lx-tilt", "utm30lx-yaw"}; }
 
-using Sensor = std::variant<sim::SpinningLidar, sim::DepthCamera, sim::LineScanner>;
-
-Sensor make_sensor(const std::string& name, std::uint64_t seed, bool noise_free) {
+AnySensor make_sensor(const std::string& name, std::uint64_t seed, SensorNoise noise) {
+  const bool noise_free = noise == SensorNoise::kNone;
   if (name == "vlp16" || name == "hdl64") {
-    auto p = name == "vlp16" ? sim::SpinningLidarParams::vlp16() : sim::SpinningLidarParams::hdl64e();
+    auto p = name == "vlp16" ? SpinningLidarParams::vlp16() : SpinningLidarParams::hdl64e();
     p.seed = seed;
     if (noise_free) p.range_sigma = 0.0, p.dropout_probability = 0.0;
-    return sim::SpinningLidar(p);
+    return SpinningLidar(p);
   }
   if (name == "kinect") {
-    auto p = sim::DepthCameraParams::kinect_one();
+    auto p = DepthCameraParams::kinect_one();
     p.seed = seed;
     if (noise_free) p.sigma_base = 0.0, p.sigma_quadratic = 0.0, p.dropout_probability = 0.0;
-    return sim::DepthCamera(p);
+    return DepthCamera(p);
   }
   if (name == "utm30lx-tilt" || name == "utm30lx-yaw") {
-    auto p = name == "utm30lx-tilt" ? sim::LineScannerParams::utm30lx_tilting() : sim::LineScannerParams::utm30lx_yawing();
+    auto p = name == "utm30lx-tilt" ? LineScannerParams::utm30lx_tilting() : LineScannerParams::utm30lx_yawing();
     p.seed = seed;
     if (noise_free) p.range_sigma = 0.0, p.dropout_probability = 0.0;
-    return sim::LineScanner(p);
+    return LineScanner(p);
   }
   throw Error("unknown sensor '" + name + "' (known: vlp16, hdl64, kinect, utm30lx-tilt, utm30lx-yaw)");
 }
 
-double sensor_reach(const Sensor& s) {
+namespace {
+
+double sensor_reach(const AnySensor& s) {
   return std::visit([](const auto& x) { return x.params().max_range; }, s);
 }
 
-sim::SimulatedScan scan_with(Sensor& s, const sim::Scene& scene, const Pose& T, double t) {
+SimulatedScan scan_with(AnySensor& s, const Scene& scene, const Pose& T, double t) {
   return std::visit([&](auto& x) { return x.scan(scene, T, t); }, s);
 }
 
 /// The scripted path of a scene, for a sensor mounted at `height` above the floor.
-sim::Trajectory path_for(const SimulationSpec& spec, double height) {
-  if (spec.scene_file.empty() && spec.scene == "parking") {
-    sim::CarPathParams p;
+Trajectory path_for(const SimulationSpec& spec, double height) {
+  if (spec.scene == "parking") {
+    CarPathParams p;
     p.sensor_height = height;
-    const auto route = spec.long_route ? sim::parking_long_car_route() : sim::parking_car_route();
-    return sim::car_path(route, p);
+    const auto route = spec.long_route ? parking_long_car_route() : parking_car_route();
+    return car_path(route, p);
   }
-  if (spec.scene_file.empty() && spec.scene == "boxes") {
+  if (spec.scene == "boxes") {
     // Along the enclosure's axis, as the seed's scanner on its stand.
-    sim::DiffDriveParams p;
+    DiffDriveParams p;
     p.speed = 0.2;
     p.sensor_height = height;
     p.floor_z = -1.0;
     const std::vector<Eigen::Vector2d> route = {{0.0, 0.35}, {0.0, 1.6}};
-    return sim::diff_drive_path(route, p);
+    return diff_drive_path(route, p);
   }
-  sim::DiffDriveParams p;
+  DiffDriveParams p;
   p.sensor_height = height;
-  const auto route = sim::office_robot_route();
-  return sim::diff_drive_path(route, p);
+  const auto route = office_robot_route();
+  return diff_drive_path(route, p);
 }
 
 }  // namespace
@@ -86,27 +83,22 @@ double recording_bytes(std::size_t points_done, std::size_t done, std::size_t fr
   return static_cast<double>(points_done) / static_cast<double>(done) * static_cast<double>(frames) * (16.0 + 12.0);
 }
 
-SimulatedRecording simulate(const SimulationSpec& spec, const std::function<void(std::size_t, std::size_t, std::size_t)>& progress) {
+SimulatedRecording simulate(const SimulationSpec& spec, const SimulationProgress& progress) {
+  return simulate(spec, make_scene(spec.scene), progress);
+}
+
+SimulatedRecording simulate(const SimulationSpec& spec, const Scene& scene, const SimulationProgress& progress) {
   if (spec.stride == 0) throw Error("--stride must be at least 1");
   if (!(spec.truth_spacing >= 0.005)) throw Error("--truth-spacing must be at least 0.005 m");
   if (spec.sweep && spec.sensor != "vlp16" && spec.sensor != "hdl64") {
     throw Error("--sweep needs a spinning lidar (--sensor vlp16 or hdl64), not '" + spec.sensor + "'");
   }
-  sim::Scene scene = [&] {
-    if (spec.scene_file.empty()) return sim::make_scene(spec.scene);
-    const std::string text = detail::read_file_bytes(spec.scene_file, std::size_t{64} << 20);
-    try {
-      return sim::scene_from_json(text);
-    } catch (const Error& e) {
-      throw InputError(spec.scene_file, "", e.what());
-    }
-  }();
-  Sensor sensor = make_sensor(spec.sensor, spec.seed, false);
-  Sensor exact = make_sensor(spec.sensor, spec.seed, true);
+  AnySensor sensor = make_sensor(spec.sensor, spec.seed, SensorNoise::kModelled);
+  AnySensor exact = make_sensor(spec.sensor, spec.seed, SensorNoise::kNone);
   // Spinning lidars on a car roof, the others on a robot at about 0.5 m (the Kinect at 0.8 m).
   const bool outdoor = spec.sensor == "vlp16" || spec.sensor == "hdl64";
   const double height = outdoor ? 1.73 : spec.sensor == "kinect" ? 0.8 : 0.5;
-  const sim::Trajectory path = path_for(spec, height);
+  const Trajectory path = path_for(spec, height);
 
   SimulatedRecording rec;
   for (std::size_t k = 0; k < path.T_world_sensor.size(); k += spec.stride) {
@@ -117,33 +109,33 @@ SimulatedRecording simulate(const SimulationSpec& spec, const std::function<void
   if (rec.T_world_sensor.empty()) throw Error("the path of scene '" + spec.scene + "' has no frame");
   const std::size_t n = rec.T_world_sensor.size();
   const double t_end = rec.times.back();
-  const auto T_world_sensor_at = [&path](double t) { return sim::pose_at(path, t); };
+  const auto T_world_sensor_at = [&path](double t) { return pose_at(path, t); };
   for (std::size_t k = 0; k < n; ++k) {
     // A sweep starts at the frame's time, so the frame's true pose is the one its times count from.
-    sim::SimulatedScan s = spec.sweep ? std::get<sim::SpinningLidar>(sensor).sweep(scene, T_world_sensor_at, rec.times[k])
+    SimulatedScan s = spec.sweep ? std::get<SpinningLidar>(sensor).sweep(scene, T_world_sensor_at, rec.times[k])
                                       : scan_with(sensor, scene, rec.T_world_sensor[k], rec.times[k]);
     rec.points += s.points_sensor.size();
     rec.scans.push_back(std::move(s.points_sensor));
     if (spec.sweep) rec.point_times.push_back(std::move(s.time));
     // What the sensor could see of the scene as it stands at the end (moving objects gone).
-    const sim::SimulatedScan e = scan_with(exact, scene, rec.T_world_sensor[k], t_end);
+    const SimulatedScan e = scan_with(exact, scene, rec.T_world_sensor[k], t_end);
     for (const Point3f& p : e.points_sensor) rec.truth_seen.push_back((rec.T_world_sensor[k] * p.cast<double>()).cast<float>());
     if (progress) progress(k + 1, n, rec.points);
   }
   if (spec.imu_rate > 0.0) {
     // An IMU on the sensor over the whole path, on a smooth interpolation of its frames.
     if (!(spec.imu_rate >= 10.0 && spec.imu_rate <= 2000.0)) throw Error("--imu-rate must be in [10, 2000] Hz");
-    sim::ImuSimParams imu;
+    ImuSimParams imu;
     imu.rate = spec.imu_rate;
     imu.seed = spec.seed;
     // 2 ms inside the path's ends: the derivatives there would see the clamped pose outside it.
     const double t0 = path.times.front() + 0.002;
     const double t1 = std::min(rec.times.back(), path.times.back() - 0.002);
-    if (t1 > t0) rec.imu = sim::simulate_imu([&](double t) { return sim::pose_at(path, t); }, t0, t1, imu);
+    if (t1 > t0) rec.imu = simulate_imu([&](double t) { return pose_at(path, t); }, t0, t1, imu);
   }
-  sim::OdometryNoiseParams noise;
+  OdometryNoiseParams noise;
   noise.seed = spec.seed;
-  rec.odometry = sim::noisy_odometry(rec.T_world_sensor, noise);
+  rec.odometry = noisy_odometry(rec.T_world_sensor, noise);
   // The dense sample, kept within reach of the path: anchors every 2 m along it, and the reach
   // widened by that spacing so no point near the path is lost between anchors.
   std::vector<Eigen::Vector3d> anchors;
@@ -152,13 +144,13 @@ SimulatedRecording simulate(const SimulationSpec& spec, const std::function<void
   }
   const double reach = std::min(sensor_reach(sensor), spec.truth_reach) + 2.0;
   std::mt19937_64 rng(spec.seed);
-  const sim::Scene::KindedSample truth = scene.sample_surface_kinds(spec.truth_spacing, rng, t_end);
+  const Scene::KindedSample truth = scene.sample_surface_kinds(spec.truth_spacing, rng, t_end);
   for (std::size_t q = 0; q < truth.points.size(); ++q) {
     const Point3f& p = truth.points[q];
     for (const Eigen::Vector3d& a : anchors) {
       if ((p.cast<double>() - a).squaredNorm() <= reach * reach) {
         rec.truth_surface.push_back(p);
-        if (truth.kinds[q] == sim::SurfaceKind::kGround) rec.truth_ground.push_back(p);
+        if (truth.kinds[q] == SurfaceKind::kGround) rec.truth_ground.push_back(p);
         break;
       }
     }
@@ -166,4 +158,4 @@ SimulatedRecording simulate(const SimulationSpec& spec, const std::function<void
   return rec;
 }
 
-}  // namespace hmap::cli
+}  // namespace hmap::sim

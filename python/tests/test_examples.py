@@ -1,0 +1,57 @@
+"""examples/python: each script runs as a user would run it, and what it writes is checked."""
+
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+
+import hmap
+from conftest import REPO
+from test_writers import read_pgm, read_png
+
+EXAMPLES = REPO / "examples" / "python"
+
+
+def run(script, *args):
+    return subprocess.run([sys.executable, str(EXAMPLES / script), *map(str, args)], check=True, capture_output=True,
+                          text=True, env=dict(os.environ)).stdout
+
+
+def test_simulate_and_map(tmp_path):
+    out = run("simulate_and_map.py", "--out", tmp_path, "--frames", "20")
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    m = hmap.Map.load(tmp_path / "map.hmap")
+    stats = m.stats()
+    assert f"{stats['cells']} cells, {stats['hvoxels']} HVoxels" in out
+    assert summary["cells"] == stats["cells"] > 1000 and summary["hvoxels"] == stats["hvoxels"]
+    grid = m.grid()
+    image = read_png(tmp_path / "grid.png")
+    assert list(image.shape) == summary["grid_shape"] + [3] == list(grid.probability.shape) + [3]
+    # North up: the image's bottom row is the grid's row 0; occupied dark, free light, unknown grey.
+    p = grid.probability[::-1]
+    assert np.all(image[np.isnan(p)] == 128)
+    known = ~np.isnan(p)
+    np.testing.assert_array_equal(image[known][:, 0], np.round((1.0 - p[known]) * 255))
+    occupied, free = p > 0.65, p <= 0.35   # the PGM's thresholds for occupied; free by one ground pass
+    assert occupied.sum() > 10 and free.sum() > 1000
+    assert image[occupied].max() < 90 and image[free].min() > 160
+    pixels = read_pgm(tmp_path / "grid.pgm")
+    assert (pixels == 0).sum() > 0 and (pixels == 254).sum() > 0
+
+
+def test_slam_and_evaluate(tmp_path):
+    out = run("slam_and_evaluate.py", "--out", tmp_path, "--frames", "20", "--stride", "3")
+    result = json.loads((tmp_path / "result.json").read_text())
+    assert result["scans"] == 20
+    truth = hmap.io.read_poses(tmp_path / "seq" / "poses.txt")
+    estimate = hmap.io.read_poses(tmp_path / "poses.txt")
+    assert estimate.shape == truth.shape == (20, 4, 4)
+    np.testing.assert_allclose(estimate[0], truth[0], atol=1e-4)   # SLAM starts at the first true pose (its tilt fitted to the floor)
+    again = hmap.eval.trajectory(truth, estimate)
+    assert abs(again["ate_rmse_m"] - result["ate_rmse_m"]) < 1e-6  # poses.txt holds 9 digits
+    # Scan matching beats the noisy odometry it starts from (fixed seed, so the same every run).
+    assert result["ate_rmse_m"] < result["odometry_ate_rmse_m"]
+    assert result["ate_rmse_m"] < 0.3
+    assert f"SLAM on 20 scans: ATE {result['ate_rmse_m']:.3f} m" in out
