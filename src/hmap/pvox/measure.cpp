@@ -210,18 +210,53 @@ std::vector<DetectedPlane> detect_planes(const VoxelMap& map, int axis, const Pl
     clusters[c].push_back(&vote);
   }
 
+  // A plane is the coherent part of a cluster: its connected pieces (26-neighbourhood) of at least
+  // min_voxels voxels that spread in both in-plane directions (min_width). Flat voxels scattered
+  // over the map that happen to share a coordinate (single scan lines, a map doubled by drift) are
+  // no face.
+  const int u = (axis + 1) % 3;
+  const int w = (axis + 2) % 3;
+  const double min_var = params.min_width * params.min_width * e * e;
   std::vector<DetectedPlane> planes;
   for (const auto& cluster : clusters) {
-    if (cluster.size() < std::max<std::size_t>(1, params.min_voxels)) continue;
+    std::unordered_map<VoxelKey, const Vote*, VoxelKeyHash> left;
+    for (const Vote* vote : cluster) left.emplace(vote->key, vote);
+    std::vector<const Vote*> kept;
+    for (const Vote* seed : cluster) {
+      if (!left.contains(seed->key)) continue;
+      std::vector<const Vote*> piece{seed};
+      left.erase(seed->key);
+      for (std::size_t q = 0; q < piece.size(); ++q) {
+        const VoxelKey at = piece[q]->key;
+        for (int di = -1; di <= 1; ++di) {
+          for (int dj = -1; dj <= 1; ++dj) {
+            for (int dk = -1; dk <= 1; ++dk) {
+              const auto it = left.find(VoxelKey{at.i + di, at.j + dj, at.k + dk});
+              if (it == left.end()) continue;
+              piece.push_back(it->second);
+              left.erase(it);
+            }
+          }
+        }
+      }
+      if (piece.size() < std::max<std::size_t>(1, params.min_voxels)) continue;
+      Moments sums{voxels.at(seed->key).moments.mean};
+      for (const Vote* vote : piece) sums.add(voxels.at(vote->key).moments, vote->points);
+      const Eigen::Matrix3d c = sums.covariance();
+      if (std::min(c(u, u), c(w, w)) < min_var) continue;
+      kept.insert(kept.end(), piece.begin(), piece.end());
+    }
+    if (kept.empty()) continue;
+    std::sort(kept.begin(), kept.end(), [](const Vote* a, const Vote* b) { return a->key < b->key; });
     DetectedPlane plane;
     plane.axis = axis;
     std::vector<std::pair<double, double>> values;
-    for (const Vote* vote : cluster) {
+    for (const Vote* vote : kept) {
       values.emplace_back(vote->value, vote->weight);
       plane.points += vote->points;
       plane.voxels.push_back(vote->key);
     }
-    plane.flat_voxels = cluster.size();
+    plane.flat_voxels = kept.size();
     plane.coordinate = weighted_median(std::move(values));
     planes.push_back(std::move(plane));
   }

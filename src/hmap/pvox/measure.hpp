@@ -33,7 +33,7 @@ struct PlaneDetectionParams {
   /// Two density peaks are one plane when the density between them stays above this fraction of
   /// the lower peak (a shoulder, not a second plane).
   double merge_valley = 0.5;
-  std::size_t min_voxels = 4;       ///< flat voxels a plane needs
+  std::size_t min_voxels = 4;       ///< flat voxels a connected piece of a plane needs
   double slab = 0.5;                ///< [edges] half thickness within which a plane takes its neighbours
 };
 
@@ -53,7 +53,8 @@ struct DetectedPlane {
 /// weighted by n / (σ² + (0.05·edge)²) so that flat voxels dominate and edge voxels (which also
 /// hold points of a neighbouring face, and have a biased mean) count little; the weighted votes
 /// are smoothed with a Gaussian of bandwidth·edge; each peak of that density is a plane, its
-/// voxels those up to the valleys on either side, its coordinate their weighted median. A plane
+/// voxels those up to the valleys on either side that form connected pieces of at least
+/// min_voxels spreading in both in-plane directions, its coordinate their weighted median. A plane
 /// then takes the neighbours of its flat voxels that are flat along no axis and whose mean lies
 /// within slab·edge of it (and nearer to it than to the next plane): the voxels at its borders,
 /// which are not flat because they touch other faces, still tell where it ends. Throws hmap::Error for an
