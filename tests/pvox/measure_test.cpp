@@ -153,6 +153,31 @@ TEST(DetectPlanes, SeparatesTwoCloseParallelFaces) {
   }
 }
 
+// A plane is a connected piece, not every flat voxel at one coordinate: six face-on patches of one
+// voxel each at y = 0.5 (5 mm samples over 5 cm × 5 cm, 2 mm noise), 0.3 m apart, are no plane;
+// the same six side by side (a 2 × 3 voxel patch) are one at 0.5.
+TEST(DetectPlanes, ScatteredFlatVoxelsAreNoPlane) {
+  const auto patches = [](double spacing) {
+    VoxelMap map(0.0586);
+    std::mt19937 rng(5);
+    for (int a = 0; a < 3; ++a) {
+      for (int b = 0; b < 2; ++b) {
+        const double x = 0.0586 * 0.1 + spacing * a;
+        const double z = 0.0586 * 0.1 + spacing * b;
+        add_rect(map, 1, 0.5, {x, z}, {x + 0.05, z + 0.05}, 0.005, 0.002, rng);
+      }
+    }
+    return map;
+  };
+  PlaneDetectionParams params;
+  params.min_width = 0.1;  // each patch alone spreads σ = 14 mm: flat by itself
+  EXPECT_TRUE(detect_planes(patches(0.3), 1, params).empty());
+  const auto y = detect_planes(patches(0.0586), 1, params);
+  ASSERT_EQ(y.size(), 1U);
+  EXPECT_NEAR(y[0].coordinate, 0.5, 0.002);
+  EXPECT_EQ(y[0].flat_voxels, 6U);
+}
+
 // Matching, by hand: planes at 0.0, 0.05, 0.5 and faces at 0.0 and 0.1 (gates 0.05): 0.0 is the
 // first face's, 0.05 lies exactly half-way and serves neither, so the second face is missing; the
 // last face at 1.0 has the max gate 0.25 and no plane within it.
