@@ -31,8 +31,8 @@ struct FilterRun {
   std::string label;
   std::vector<pvox::RegistrationResult> registrations;
   std::vector<double> ms;
-  std::vector<pvox::EdgeMeasurement> edges;
-  double average = 0.0;
+  pvox::BoxesMeasurement measured;
+  pvox::AccuracySummary accuracy;
   std::optional<pvox::PvoxMapper> mapper;
   PointCloud raw_points_map;
 };
@@ -50,8 +50,8 @@ FilterRun run_filter(const pvox::BoxesRecording& rec, pvox::FilterKind kind, con
     const Pose& T = run.registrations.back().T_map_sensor;
     for (const Point3f& p : rec.scans[k]) run.raw_points_map.push_back((T * p.cast<double>()).cast<float>());
   }
-  run.edges = pvox::measure_boxes_edges(run.mapper->map());
-  run.average = pvox::average_accuracy(run.edges);
+  run.measured = pvox::measure_boxes(run.mapper->map());
+  run.accuracy = pvox::summarize_accuracy(run.measured.edges);
   return run;
 }
 
@@ -63,16 +63,31 @@ std::string mm(const std::optional<double>& metres) {
 nlohmann::json run_json(const FilterRun& run, const pvox::BoxesRecording& rec) {
   nlohmann::json j;
   j["edges"] = nlohmann::json::array();
-  for (const auto& e : run.edges) {
+  const auto optional_json = [](const std::optional<double>& v, double scale) {
+    return v ? nlohmann::json(*v * scale) : nlohmann::json(nullptr);
+  };
+  for (const auto& e : run.measured.edges) {
     j["edges"].push_back({{"name", e.name},
                           {"true_mm", e.true_length * 1000.0},
-                          {"measured_mm", e.measured ? nlohmann::json(*e.measured * 1000.0) : nlohmann::json(nullptr)},
-                          {"accuracy", e.accuracy},
+                          {"measured_mm", optional_json(e.measured, 1000.0)},
+                          {"accuracy", e.measured ? nlohmann::json(e.accuracy) : nlohmann::json(nullptr)},
+                          {"missing", e.missing},
                           {"how", e.how},
-                          {"faces_m", {e.first ? nlohmann::json(*e.first) : nlohmann::json(nullptr),
-                                       e.second ? nlohmann::json(*e.second) : nlohmann::json(nullptr)}}});
+                          {"faces_m", {optional_json(e.first, 1.0), optional_json(e.second, 1.0)}}});
   }
-  j["average_accuracy"] = run.average;
+  j["average_accuracy_measured"] = run.accuracy.mean;
+  j["edges_measured"] = run.accuracy.measured;
+  j["edges_missing"] = run.accuracy.missing;
+  j["faces"] = nlohmann::json::array();
+  for (const auto& f : run.measured.faces) {
+    nlohmann::json plane = nullptr;
+    if (f.plane) {
+      const auto& p = run.measured.planes[static_cast<std::size_t>(f.axis)][*f.plane];
+      plane = {{"coordinate_m", p.coordinate}, {"flat_voxels", p.flat_voxels}, {"points", p.points}};
+    }
+    j["faces"].push_back({{"name", f.name}, {"nominal_m", f.nominal}, {"gate_m", f.gate}, {"plane", plane}});
+  }
+  j["planes_detected"] = {run.measured.planes[0].size(), run.measured.planes[1].size(), run.measured.planes[2].size()};
   j["registrations"] = nlohmann::json::array();
   for (std::size_t k = 0; k < run.registrations.size(); ++k) {
     const auto& r = run.registrations[k];
@@ -95,11 +110,51 @@ nlohmann::json run_json(const FilterRun& run, const pvox::BoxesRecording& rec) {
   return j;
 }
 
+/// One row per filter and edge; an edge not measured has empty length and accuracy, and names its
+/// missing faces.
+std::string edges_csv(const std::vector<const FilterRun*>& runs) {
+  std::ostringstream csv;
+  csv << "filter,edge,true_mm,measured_mm,accuracy,status,first_m,second_m,missing\n";
+  const auto cell = [](const std::optional<double>& v, const char* f, double scale) { return v ? format(f, *v * scale) : std::string(); };
+  for (const FilterRun* run : runs) {
+    for (const auto& e : run->measured.edges) {
+      csv << run->label << ',' << e.name << ',' << format("%.1f", e.true_length * 1000.0) << ',' << cell(e.measured, "%.2f", 1000.0)
+          << ',' << (e.measured ? format("%.4f", e.accuracy) : std::string()) << ',' << (e.measured ? "measured" : "missing")
+          << ',' << cell(e.first, "%.5f", 1.0) << ',' << cell(e.second, "%.5f", 1.0) << ",\"" << e.missing << "\"\n";
+    }
+  }
+  return csv.str();
+}
+
+/// One row per filter and detected plane, with the scene face it was matched with (if any).
+std::string planes_csv(const std::vector<const FilterRun*>& runs) {
+  std::ostringstream csv;
+  csv << "filter,axis,coordinate_m,flat_voxels,points,voxels,min_x,min_y,min_z,max_x,max_y,max_z,face\n";
+  for (const FilterRun* run : runs) {
+    for (std::size_t axis = 0; axis < 3; ++axis) {
+      const auto& planes = run->measured.planes[axis];
+      for (std::size_t p = 0; p < planes.size(); ++p) {
+        std::string face;
+        for (const auto& f : run->measured.faces) {
+          if (static_cast<std::size_t>(f.axis) == axis && f.plane == p) face = f.name;
+        }
+        const auto& pl = planes[p];
+        csv << run->label << ',' << "xyz"[axis] << ',' << format("%.5f", pl.coordinate) << ',' << pl.flat_voxels << ','
+            << pl.points << ',' << pl.voxels.size();
+        for (int k = 0; k < 3; ++k) csv << ',' << format("%.4f", pl.extent.min()[k]);
+        for (int k = 0; k < 3; ++k) csv << ',' << format("%.4f", pl.extent.max()[k]);
+        csv << ",\"" << face << "\"\n";
+      }
+    }
+  }
+  return csv.str();
+}
+
 /// The experiment, its files written into `dir`.
 void pvox_boxes_into(const ExperimentOptions& o, const std::filesystem::path& dir);
 
 void run_pvox_boxes(const ExperimentOptions& o) {
-  prepare_output_set(o.out, {"rbf_*", "brf_*", "report.json", "report.md"}, "experiment");
+  prepare_output_set(o.out, {"rbf_*", "brf_*", "report.json", "report.md", "edges.csv", "planes.csv"}, "experiment");
   // The maps, pictures and reports are one set: a kill leaves the old folder or the new one.
   write_folder_atomic(o.out, [&](const std::filesystem::path& dir) { pvox_boxes_into(o, dir); });
 }
@@ -143,6 +198,8 @@ void pvox_boxes_into(const ExperimentOptions& o, const std::filesystem::path& di
   report["simulation_ms"] = ms_sim;
   report["free_space"] = !o.no_free_space;
   write_file_atomic(dir / "report.json", report.dump(2) + "\n");
+  write_file_atomic(dir / "edges.csv", edges_csv({&rbf, &brf}));
+  write_file_atomic(dir / "planes.csv", planes_csv({&rbf, &brf}));
 
   std::ostringstream md;
   md << "# PVOX experiment: the boxes enclosure (seed Table 1, Figures 12–17)\n\n"
@@ -152,15 +209,36 @@ void pvox_boxes_into(const ExperimentOptions& o, const std::filesystem::path& di
      << o.seed << ", " << rbf.raw_points_map.size() << " points. Filters: motion variance 2000 mm², measurement "
         "variance 100 mm² (the measurement: point-to-plane alignment of the scan to the map); voxel edge 6σ.\n\n";
   md << "| edge | true [mm] | RBF [mm] | RBF accuracy | BRF [mm] | BRF accuracy |\n| --- | --- | --- | --- | --- | --- |\n";
-  for (std::size_t i = 0; i < rbf.edges.size(); ++i) {
-    const auto& a = rbf.edges[i];
-    const auto& b = brf.edges[i];
-    md << format("| %s | %.0f | %s | %.3f | %s | %.3f |\n", a.name.c_str(), a.true_length * 1000.0,
-                 mm(a.measured).c_str(), a.accuracy, mm(b.measured).c_str(), b.accuracy);
+  const auto accuracy = [](const pvox::EdgeMeasurement& e) { return e.measured ? format("%.3f", e.accuracy) : std::string("missing"); };
+  for (std::size_t i = 0; i < rbf.measured.edges.size(); ++i) {
+    const auto& a = rbf.measured.edges[i];
+    const auto& b = brf.measured.edges[i];
+    md << format("| %s | %.0f | %s | %s | %s | %s |\n", a.name.c_str(), a.true_length * 1000.0, mm(a.measured).c_str(),
+                 accuracy(a).c_str(), mm(b.measured).c_str(), accuracy(b).c_str());
   }
-  md << format("| **average** | | | **%.3f** | | **%.3f** |\n\n", rbf.average, brf.average);
-  md << "Each length is the difference of two face coordinates measured on the map (planes: count-weighted median "
-        "of flat voxels' point means; face ends: outermost voxel's mean ± √3σ), see docs/PVOX.md.\n\n";
+  const auto summary = [](const pvox::AccuracySummary& s) {
+    return format("**%.3f** over %zu measured, **%zu missing**", s.mean, s.measured, s.missing);
+  };
+  md << "| **average** | | | " << summary(rbf.accuracy) << " | | " << summary(brf.accuracy) << " |\n\n";
+  md << "The ruler reads the map alone: along each axis the planes are found in the voxels (flat voxels' point "
+        "means, weighted, smoothed, one plane per density peak; no face position is given); then each face of the "
+        "scene is matched with the nearest plane within half the gap to its nearest neighbouring face, else it is "
+        "missing. Each length is the difference of two face coordinates: a plane's, or the end of a plane's voxels "
+        "(outermost voxel's mean ± √3σ, median over rows). An edge with a missing face is not measured and the "
+        "average is over the measured edges only. Faces, planes: `report.json`, `edges.csv`, `planes.csv`; "
+        "method: docs/PVOX.md.\n\n";
+  md << "| face | nominal [mm] | gate [mm] | RBF plane [mm] | BRF plane [mm] |\n| --- | --- | --- | --- | --- |\n";
+  for (std::size_t i = 0; i < rbf.measured.faces.size(); ++i) {
+    const auto plane_mm = [&](const FilterRun& run) {
+      const auto& f = run.measured.faces[i];
+      if (!f.plane) return std::string("missing");
+      return format("%.1f", run.measured.planes[static_cast<std::size_t>(f.axis)][*f.plane].coordinate * 1000.0);
+    };
+    const auto& f = rbf.measured.faces[i];
+    md << format("| %s | %.0f | %.1f | %s | %s |\n", f.name.c_str(), f.nominal * 1000.0, f.gate * 1000.0,
+                 plane_mm(rbf).c_str(), plane_mm(brf).c_str());
+  }
+  md << "\n";
   md << "## Registrations\n\n| position | RBF ms | RBF edge [mm] | RBF σ² [mm²] | RBF error [mm] | BRF ms | BRF σ² [mm²] | BRF error [mm] |\n"
         "| --- | --- | --- | --- | --- | --- | --- | --- |\n";
   for (std::size_t k = 0; k < rbf.registrations.size(); ++k) {
@@ -181,8 +259,9 @@ void pvox_boxes_into(const ExperimentOptions& o, const std::filesystem::path& di
         "`rbf_gradient.png` (p on a slice just above the floor, arrows −∇p: the \"vector field\").\n";
   write_file_atomic(dir / "report.md", md.str());
 
-  std::printf("pvox-boxes: RBF average accuracy %.3f, BRF %.3f; sizes raw %s, voxel CSV %s, binary %s (%.0fx); wrote %s\n",
-              rbf.average, brf.average, human_bytes(static_cast<double>(sizes.raw_csv)).c_str(),
+  std::printf("pvox-boxes: RBF accuracy %.3f over %zu edges (%zu missing), BRF %.3f over %zu (%zu missing); sizes raw %s, voxel CSV %s, binary %s (%.0fx); wrote %s\n",
+              rbf.accuracy.mean, rbf.accuracy.measured, rbf.accuracy.missing, brf.accuracy.mean, brf.accuracy.measured,
+              brf.accuracy.missing, human_bytes(static_cast<double>(sizes.raw_csv)).c_str(),
               human_bytes(static_cast<double>(sizes.voxel_csv)).c_str(), human_bytes(static_cast<double>(sizes.binary)).c_str(),
               static_cast<double>(sizes.raw_csv) / static_cast<double>(std::max<std::uintmax_t>(1, sizes.binary)),
               (std::filesystem::path(o.out) / "report.md").c_str());

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <map>
 #include <numbers>
 #include <sstream>
 #include <string>
@@ -548,6 +549,56 @@ TEST_F(CliTest, SimulateSweepWritesPerPointTimeThatSlamDeskews) {
   EXPECT_EQ(lines(bad.out), 1U) << bad.out;
   EXPECT_NE(bad.out.find("--sweep"), std::string::npos) << bad.out;
   EXPECT_FALSE(std::filesystem::exists(path("bad")));
+}
+
+// The PVOX boxes experiment's ruler output: every edge of both filters in edges.csv, measured or
+// missing (never both, never a length without its faces), the counts and the average in report.json
+// agree with the rows, and every face matched with a plane names a plane of planes.csv.
+TEST_F(CliTest, PvoxBoxesReportsMissingEdgesAsMissing) {
+  const CmdResult r = run("experiment pvox-boxes --quick --seed 4 --out " + path("pvox"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  std::ifstream csv(dir_ / "pvox" / "edges.csv");
+  std::string line;
+  ASSERT_TRUE(std::getline(csv, line));
+  EXPECT_EQ(line, "filter,edge,true_mm,measured_mm,accuracy,status,first_m,second_m,missing");
+  std::map<std::string, std::pair<std::size_t, std::size_t>> counts;  // filter -> measured, missing
+  std::map<std::string, double> accuracy_sum;
+  while (std::getline(csv, line)) {
+    std::vector<std::string> cells;
+    std::stringstream row(line);
+    for (std::string cell; std::getline(row, cell, ',');) cells.push_back(cell);
+    ASSERT_GE(cells.size(), 9U) << line;
+    if (cells[5] == "measured") {
+      EXPECT_FALSE(cells[3].empty() || cells[4].empty() || cells[6].empty() || cells[7].empty()) << line;
+      EXPECT_EQ(cells[8], "\"\"") << line;
+      ++counts[cells[0]].first;
+      accuracy_sum[cells[0]] += std::stod(cells[4]);
+    } else {
+      EXPECT_EQ(cells[5], "missing") << line;
+      EXPECT_TRUE(cells[3].empty() && cells[4].empty()) << line;
+      EXPECT_NE(cells[8], "\"\"") << line;
+      ++counts[cells[0]].second;
+    }
+  }
+  std::ifstream in(dir_ / "pvox" / "report.json");
+  const auto j = nlohmann::json::parse(in);
+  std::ifstream planes_csv(dir_ / "pvox" / "planes.csv");
+  const std::string planes((std::istreambuf_iterator<char>(planes_csv)), std::istreambuf_iterator<char>());
+  for (const char* filter : {"rbf", "brf"}) {
+    const auto [measured, missing] = counts[filter];
+    EXPECT_EQ(measured + missing, 9U) << filter;
+    EXPECT_EQ(j.at(filter).at("edges_measured").get<std::size_t>(), measured) << filter;
+    EXPECT_EQ(j.at(filter).at("edges_missing").get<std::size_t>(), missing) << filter;
+    if (measured > 0) {
+      EXPECT_NEAR(j.at(filter).at("average_accuracy_measured").get<double>(), accuracy_sum[filter] / measured, 1e-3) << filter;
+    }
+    for (const auto& face : j.at(filter).at("faces")) {
+      if (face.at("plane").is_null()) continue;
+      const std::string name = face.at("name").get<std::string>();
+      EXPECT_NE(planes.find(std::string(filter) + ",") , std::string::npos);
+      EXPECT_NE(planes.find("\"" + name + "\""), std::string::npos) << name;
+    }
+  }
 }
 
 }  // namespace

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <random>
+
 #include "hmap/pvox/mapper.hpp"
 #include "hmap/pvox/measure.hpp"
 #include "hmap/pvox/serialize.hpp"
@@ -9,13 +11,15 @@
 namespace hmap::pvox {
 namespace {
 
-// The seed's experiment end to end at a small size (1° beams, 31 sweep steps): RBF registers
-// every position to a few millimetres and its map gives the nine edges; BRF drifts.
+// The seed's experiment end to end at a small size (0.5° beams, 91 sweep steps; at 1° and 61 steps
+// the 120 mm front of box A is one voxel row holding single scan lines, which are no plane): RBF
+// registers every position to a few millimetres and the ruler finds all nine edges on its map;
+// BRF drifts.
 TEST(BoxesExperiment, RunsEndToEndAtASmallSize) {
   BoxesExperimentParams sp;
   sp.seed = 4;
-  sp.angular_step_deg = 1.0;
-  sp.sweep_steps = 61;
+  sp.angular_step_deg = 0.5;
+  sp.sweep_steps = 91;
   const BoxesRecording rec = simulate_boxes(sp);
   ASSERT_EQ(rec.scans.size(), 5U);
   EXPECT_EQ(rec.T_world_true[0].translation(), rec.T_world_nominal[0].translation());
@@ -35,11 +39,11 @@ TEST(BoxesExperiment, RunsEndToEndAtASmallSize) {
       const double error = (r.T_map_sensor.translation() - rec.T_world_true[k].translation()).norm();
       worst_position_error[f] = std::max(worst_position_error[f], error);
     }
-    const auto edges = measure_boxes_edges(mapper.map());
+    const auto edges = measure_boxes(mapper.map()).edges;
     ASSERT_EQ(edges.size(), 9U);
     EXPECT_EQ(edges[0].name, "AB");
     EXPECT_EQ(edges[8].name, "JK");
-    average[f] = average_accuracy(edges);
+    average[f] = summarize_accuracy(edges).mean;
     if (kind == FilterKind::kRecursive) {
       for (const auto& e : edges) EXPECT_TRUE(e.measured.has_value()) << e.name;
       // The binary map is far smaller than the raw points.
@@ -52,37 +56,90 @@ TEST(BoxesExperiment, RunsEndToEndAtASmallSize) {
   EXPECT_GT(average[0], average[1]);
 }
 
-TEST(Measure, PlaneAndEndOfASyntheticFace) {
-  // A face x = 0.3 covering y in [0.1, 0.5], z in [0, 0.4], sampled every 5 mm.
-  VoxelMap map(0.06);
-  for (double y = 0.1; y <= 0.5 + 1e-9; y += 0.005) {
-    for (double z = 0.0; z <= 0.4 + 1e-9; z += 0.005) map.add_hit(Eigen::Vector3d(0.3, y, z));
+/// The boxes scene's visible faces sampled every 10 mm with 2 mm noise on each coordinate (fixed seed), into voxels
+/// of 58.6 mm; `skip` names a face left out.
+VoxelMap sampled_boxes_scene(const std::string& skip = "") {
+  VoxelMap map(0.0586);
+  std::mt19937 rng(11);
+  std::normal_distribution<double> noise(0.0, 0.002);
+  struct Rect {
+    std::string name;
+    int axis;
+    double c;
+    double u0, u1, v0, v1;  // on the other axes in order (x: y, z; y: x, z; z: x, y)
+  };
+  const std::vector<Rect> rects = {
+      {"floor", 2, -1.0, -0.75, 0.75, 0.0, 2.7},         {"ceiling", 2, 1.0, -0.75, 0.75, 0.0, 2.7},
+      {"left wall", 0, -0.75, 0.0, 2.7, -1.0, 1.0},      {"right wall", 0, 0.75, 0.0, 2.7, -1.0, 1.0},
+      {"front wall", 1, 0.0, -0.75, 0.75, -1.0, 1.0},    {"back wall", 1, 2.7, -0.75, 0.75, -1.0, 1.0},
+      {"top A", 2, -0.88, -0.45, -0.12, 0.935, 1.15},    {"front A", 1, 0.935, -0.45, -0.12, -1.0, -0.88},
+      {"back A", 1, 1.15, -0.45, -0.12, -1.0, -0.88},    {"right A", 0, -0.12, 0.935, 1.15, -1.0, -0.88},
+      {"top B", 2, -0.215, -0.45, -0.08, 2.05, 2.125},   {"front B", 1, 2.05, -0.45, -0.08, -1.0, -0.215},
+      {"back B", 1, 2.125, -0.45, -0.08, -1.0, -0.215},  {"right B", 0, -0.08, 2.05, 2.125, -1.0, -0.215},
+  };
+  for (const Rect& r : rects) {
+    if (r.name == skip) continue;
+    const int u = r.axis == 0 ? 1 : 0;
+    const int v = r.axis == 2 ? 1 : 2;
+    for (double a = r.u0; a <= r.u1 + 1e-9; a += 0.01) {
+      for (double b = r.v0; b <= r.v1 + 1e-9; b += 0.01) {
+        Eigen::Vector3d p;
+        p[r.axis] = r.c + noise(rng);
+        p[u] = a + noise(rng);
+        p[v] = b + noise(rng);
+        map.add_hit(p);
+      }
+    }
   }
-  FaceQuery face{0, Eigen::AlignedBox3d(Eigen::Vector3d(0.2, 0.0, -0.1), Eigen::Vector3d(0.4, 0.7, 0.5))};
-  ASSERT_TRUE(measure_plane(map, face).has_value());
-  EXPECT_NEAR(*measure_plane(map, face), 0.3, 1e-4);
-  EXPECT_NEAR(*measure_extent(map, face, 1, -1), 0.1, 0.004);
-  EXPECT_NEAR(*measure_extent(map, face, 1, +1), 0.5, 0.004);
-  EXPECT_NEAR(*measure_extent(map, face, 2, +1), 0.4, 0.004);
-  face.region = Eigen::AlignedBox3d(Eigen::Vector3d(5, 5, 5), Eigen::Vector3d(6, 6, 6));
-  EXPECT_FALSE(measure_plane(map, face).has_value());
-  EXPECT_FALSE(measure_extent(map, face, 1, -1).has_value());
+  return map;
 }
 
-// The plane is the weighted median of the flat voxels' means, by hand: three voxels of a face x ≈
-// 0.3 with 30, 100 and 30 points at x = 0.31, 0.32, 0.34 (each flat: weight ∝ points). Sorted, the
-// weights run 30, 130, 160 of 160: the median is 0.32 (the minimum would be 0.31, the mean 0.32375).
-TEST(Measure, PlaneIsTheWeightedMedianOfTheFlatVoxels) {
-  VoxelMap map(0.06);
-  const auto fill = [&](double x, double y0, int count) {
-    for (int k = 0; k < count; ++k) map.add_hit(Eigen::Vector3d(x, y0 + 0.04 * (k % 10) / 9.0, 0.01 + 0.04 * (k / 10) / 9.0));
-  };
-  fill(0.31, 0.01, 30);   // voxel y in [0, 0.06)
-  fill(0.32, 0.07, 100);  // [0.06, 0.12)
-  fill(0.34, 0.13, 30);   // [0.12, 0.18)
-  const FaceQuery face{0, Eigen::AlignedBox3d(Eigen::Vector3d(0.2, -0.1, -0.1), Eigen::Vector3d(0.4, 0.3, 0.2))};
-  ASSERT_TRUE(measure_plane(map, face).has_value());
-  EXPECT_NEAR(*measure_plane(map, face), 0.32, 1e-6);  // moments are kept in float
+// The ruler on a map of the scene's true faces: every edge measured, planes to 2 mm and face ends
+// to a quarter of a voxel (measure_test.cpp), so every length within 2·0.25·58.6 = 29 mm and the
+// planes' differences (AE, EG, GH, CF, JK) within 4 mm.
+TEST(BoxesExperiment, MeasuresTheTrueFacesFromTheMapAlone) {
+  const VoxelMap map = sampled_boxes_scene();
+  const BoxesMeasurement m = measure_boxes(map);
+  ASSERT_EQ(m.edges.size(), 9U);
+  for (const auto& e : m.edges) {
+    ASSERT_TRUE(e.measured.has_value()) << e.name << " missing " << e.missing;
+    const bool planes_only = e.name == "AE" || e.name == "EG" || e.name == "GH" || e.name == "CF" || e.name == "JK";
+    EXPECT_NEAR(*e.measured, e.true_length, planes_only ? 0.004 : 0.5 * map.edge()) << e.name << ": " << e.how;
+  }
+  const AccuracySummary s = summarize_accuracy(m.edges);
+  EXPECT_EQ(s.measured, 9U);
+  EXPECT_EQ(s.missing, 0U);
+  EXPECT_GT(s.mean, 0.95);
+  // Every face the sensor could see is matched; the boxes' left sides (x = −0.45) were not sampled.
+  for (const auto& f : m.faces) EXPECT_EQ(f.plane.has_value(), f.name != "left sides of boxes A, B (x)") << f.name;
+}
+
+// Without the back of box B, the four edges that need it (CF, FI, IJ, JK) are reported missing (not measured on
+// the front of B or the back wall), and the summary says so: 5 measured, 4 missing.
+TEST(BoxesExperiment, AMissingFaceMakesItsEdgesMissing) {
+  const BoxesMeasurement m = measure_boxes(sampled_boxes_scene("back B"));
+  std::vector<std::string> missing;
+  for (const auto& e : m.edges) {
+    if (!e.measured) {
+      missing.push_back(e.name);
+      EXPECT_NE(e.missing.find("back of box B"), std::string::npos) << e.name << ": " << e.missing;
+    }
+  }
+  EXPECT_EQ(missing, (std::vector<std::string>{"CF", "FI", "IJ", "JK"}));
+  const AccuracySummary s = summarize_accuracy(m.edges);
+  EXPECT_EQ(s.measured, 5U);
+  EXPECT_EQ(s.missing, 4U);
+}
+
+TEST(BoxesExperiment, SummaryOfNoEdges) {
+  const AccuracySummary s = summarize_accuracy({});
+  EXPECT_EQ(s.measured, 0U);
+  EXPECT_EQ(s.missing, 0U);
+  EXPECT_EQ(s.mean, 0.0);
+  // An empty map: every face missing, every edge missing.
+  const BoxesMeasurement m = measure_boxes(VoxelMap(0.0586));
+  EXPECT_EQ(summarize_accuracy(m.edges).missing, 9U);
+  for (const auto& f : m.faces) EXPECT_FALSE(f.plane.has_value()) << f.name;
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 #include <functional>
 #include <random>
 
+#include "hmap/core/error.hpp"
 #include "hmap/pvox/measure.hpp"
 #include "hmap/sim/builtin_scenes.hpp"
 #include "hmap/sim/sensors.hpp"
@@ -18,28 +19,6 @@ Pose stop(double x, double y, double yaw) {
   T.translation() = Eigen::Vector3d(x, y, 0.0);
   T.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   return T;
-}
-
-Eigen::AlignedBox3d box(double x0, double x1, double y0, double y1, double z0, double z1) {
-  return {Eigen::Vector3d(x0, y0, z0), Eigen::Vector3d(x1, y1, z1)};
-}
-
-/// A face coordinate: a plane, or the end of a face along an axis.
-struct FaceCoordinate {
-  std::string name;
-  FaceQuery query;
-  int along = -1;  ///< −1: the plane; else the axis of the end
-  int side = 0;
-  [[nodiscard]] std::optional<double> measure(const VoxelMap& map) const {
-    return along < 0 ? measure_plane(map, query) : measure_extent(map, query, along, side);
-  }
-};
-
-FaceCoordinate plane(std::string name, int axis, const Eigen::AlignedBox3d& region) {
-  return {std::move(name), FaceQuery{axis, region}, -1, 0};
-}
-FaceCoordinate end(std::string name, int axis, const Eigen::AlignedBox3d& region, int along, int side) {
-  return {std::move(name), FaceQuery{axis, region}, along, side};
 }
 
 }  // namespace
@@ -82,68 +61,120 @@ BoxesRecording simulate_boxes(const BoxesExperimentParams& params) {
   return rec;
 }
 
-std::vector<EdgeMeasurement> measure_boxes_edges(const VoxelMap& map) {
-  // The faces of builtin_scenes.cpp's layout, windows ±5 cm (±4 cm for box B's thin faces)
-  // around them, 3 cm in from their borders. Box A: x −0.45..−0.12, y 0.935..1.15, z −1..−0.88;
-  // box B: x −0.45..−0.08, y 2.05..2.125, z −1..−0.215; floor z = −1; back wall y = 2.7.
-  const FaceCoordinate floor_front_a = plane("floor before box A (z)", 2, box(-0.5, 0.0, 0.6, 0.9, -1.05, -0.95));
-  const FaceCoordinate floor_behind_b = plane("floor behind box B (z)", 2, box(-0.5, 0.0, 2.2, 2.6, -1.05, -0.95));
-  const FaceCoordinate top_a = plane("top of box A (z)", 2, box(-0.42, -0.15, 0.965, 1.12, -0.93, -0.83));
-  const Eigen::AlignedBox3d top_a_wide = box(-0.65, 0.05, 0.965, 1.12, -0.92, -0.84);
-  const FaceCoordinate top_a_left = end("top of box A, left end (x)", 2, top_a_wide, 0, -1);
-  const FaceCoordinate top_a_right = end("top of box A, right end (x)", 2, top_a_wide, 0, +1);
-  const FaceCoordinate front_a = plane("front of box A (y)", 1, box(-0.42, -0.15, 0.885, 0.985, -0.97, -0.89));
-  const FaceCoordinate back_a = plane("back of box A (y)", 1, box(-0.42, -0.15, 1.10, 1.20, -0.97, -0.89));
-  const FaceCoordinate front_b = plane("front of box B (y)", 1, box(-0.42, -0.11, 2.01, 2.085, -0.9, -0.3));
-  const FaceCoordinate back_b = plane("back of box B (y)", 1, box(-0.42, -0.11, 2.09, 2.165, -0.9, -0.3));
-  const Eigen::AlignedBox3d front_b_wide = box(-0.65, 0.05, 2.01, 2.08, -0.9, -0.3);
-  const Eigen::AlignedBox3d back_b_wide = box(-0.65, 0.05, 2.095, 2.165, -0.9, 0.0);
-  const FaceCoordinate front_b_left = end("front of box B, left end (x)", 1, front_b_wide, 0, -1);
-  const FaceCoordinate front_b_right = end("front of box B, right end (x)", 1, front_b_wide, 0, +1);
-  const FaceCoordinate back_b_left = end("back of box B, left end (x)", 1, back_b_wide, 0, -1);
-  const FaceCoordinate back_b_right = end("back of box B, right end (x)", 1, back_b_wide, 0, +1);
-  const FaceCoordinate back_b_top = end("back of box B, top end (z)", 1, box(-0.42, -0.11, 2.095, 2.165, -0.9, 0.0), 2, +1);
-  const FaceCoordinate back_wall = plane("back wall (y)", 1, box(-0.45, 0.4, 2.65, 2.75, -0.5, 0.0));
+BoxesMeasurement measure_boxes(const VoxelMap& map, const PlaneDetectionParams& params) {
+  BoxesMeasurement out;
+  // Find the planes in the enclosure (its walls 0.3 m out, so a drifted wall stays in), knowing
+  // nothing of where the faces are.
+  PlaneDetectionParams detection = params;
+  if (!detection.region) {
+    detection.region = Eigen::AlignedBox3d(Eigen::Vector3d(-1.05, -0.3, -1.3), Eigen::Vector3d(1.05, 3.0, 1.3));
+  }
+  for (int axis = 0; axis < 3; ++axis) out.planes[static_cast<std::size_t>(axis)] = detect_planes(map, axis, detection);
 
+  // Then compare with the scene: every axis-aligned face of builtin_scenes.cpp's layout (box A:
+  // x −0.45..−0.12, y 0.935..1.15, z −1..−0.88; box B: x −0.45..−0.08, y 2.05..2.125, z −1..−0.215;
+  // the room x ±0.75, y 0..2.7, z ±1), the unseen ones too, so that the gates are honest.
+  const std::array<std::vector<std::pair<const char*, double>>, 3> nominal = {{
+      {{"left wall (x)", -0.75}, {"left sides of boxes A, B (x)", -0.45}, {"right side of box A (x)", -0.12},
+       {"right side of box B (x)", -0.08}, {"right wall (x)", 0.75}},
+      {{"front wall (y)", 0.0}, {"front of box A (y)", 0.935}, {"back of box A (y)", 1.15}, {"front of box B (y)", 2.05},
+       {"back of box B (y)", 2.125}, {"back wall (y)", 2.7}},
+      {{"floor (z)", -1.0}, {"top of box A (z)", -0.88}, {"top of box B (z)", -0.215}, {"ceiling (z)", 1.0}},
+  }};
+  for (int axis = 0; axis < 3; ++axis) {
+    const auto& faces = nominal[static_cast<std::size_t>(axis)];
+    std::vector<double> coordinates;
+    for (const auto& [name, c] : faces) coordinates.push_back(c);
+    const auto matches = associate_faces(out.planes[static_cast<std::size_t>(axis)], coordinates);
+    for (std::size_t f = 0; f < faces.size(); ++f) {
+      out.faces.push_back({faces[f].first, axis, faces[f].second, face_gate(coordinates, f), matches[f]});
+    }
+  }
+  const auto face = [&](const std::string& name) -> const FaceMatch& {
+    for (const FaceMatch& f : out.faces) {
+      if (f.name == name) return f;
+    }
+    throw Error("measure_boxes: no face " + name);
+  };
+
+  /// A face coordinate: the plane of a face, or where it ends along another axis.
+  struct Coordinate {
+    std::string face;
+    int along = -1;  ///< −1: the plane; else the axis of the end
+    int side = 0;
+    [[nodiscard]] std::string name() const {
+      if (along < 0) return face;
+      return face + ", " + (side < 0 ? "low" : "high") + " end (" + "xyz"[along] + ")";
+    }
+  };
+  const auto read = [&](const Coordinate& c) -> std::optional<double> {
+    const FaceMatch& f = face(c.face);
+    if (!f.plane) return std::nullopt;
+    const DetectedPlane& plane = out.planes[static_cast<std::size_t>(f.axis)][*f.plane];
+    return c.along < 0 ? std::optional<double>(plane.coordinate) : plane_end(map, plane, c.along, c.side);
+  };
+  const Coordinate floor{"floor (z)"};
+  const Coordinate top_a{"top of box A (z)"};
+  const Coordinate front_a{"front of box A (y)"};
+  const Coordinate back_a{"back of box A (y)"};
+  const Coordinate front_b{"front of box B (y)"};
+  const Coordinate back_b{"back of box B (y)"};
+  const Coordinate back_wall{"back wall (y)"};
   struct Spec {
     const char* from;
     const char* to;
-    const FaceCoordinate* a;
-    const FaceCoordinate* b;
+    Coordinate a;
+    Coordinate b;
   };
   const Spec specs[] = {
-      {"A", "B", &top_a_left, &top_a_right}, {"A", "E", &floor_front_a, &top_a},   {"E", "G", &front_a, &back_a},
-      {"G", "H", &back_a, &front_b},         {"H", "C", &front_b_left, &front_b_right},
-      {"C", "F", &front_b, &back_b},         {"F", "I", &back_b_left, &back_b_right},
-      {"I", "J", &floor_behind_b, &back_b_top}, {"J", "K", &back_b, &back_wall},
+      {"A", "B", {top_a.face, 0, -1}, {top_a.face, 0, +1}},
+      {"A", "E", floor, top_a},
+      {"E", "G", front_a, back_a},
+      {"G", "H", back_a, front_b},
+      {"H", "C", {front_b.face, 0, -1}, {front_b.face, 0, +1}},
+      {"C", "F", front_b, back_b},
+      {"F", "I", {back_b.face, 0, -1}, {back_b.face, 0, +1}},
+      {"I", "J", floor, {back_b.face, 2, +1}},
+      {"J", "K", back_b, back_wall},
   };
   const auto truth = sim::boxes_edges();
-  std::vector<EdgeMeasurement> out;
   for (const Spec& s : specs) {
     EdgeMeasurement m;
     m.name = std::string(s.from) + s.to;
     for (const auto& e : truth) {
       if (e.from == s.from && e.to == s.to) m.true_length = e.length;
     }
-    m.how = s.b->name + " − " + s.a->name;
-    const auto a = s.a->measure(map);
-    const auto b = s.b->measure(map);
-    m.first = a;
-    m.second = b;
-    if (a && b) {
-      m.measured = std::abs(*b - *a);
+    m.how = s.b.name() + " − " + s.a.name();
+    m.first = read(s.a);
+    m.second = read(s.b);
+    if (m.first && m.second) {
+      m.measured = std::abs(*m.second - *m.first);
       m.accuracy = 1.0 - std::abs(*m.measured - m.true_length) / m.true_length;
+    } else {
+      for (const Coordinate* c : {&s.a, &s.b}) {
+        if (face(c->face).plane || m.missing.find(c->face) != std::string::npos) continue;
+        m.missing += (m.missing.empty() ? "" : "; ") + c->face;
+      }
+      if (m.missing.empty()) m.missing = "face end";
     }
-    out.push_back(std::move(m));
+    out.edges.push_back(std::move(m));
   }
   return out;
 }
 
-double average_accuracy(const std::vector<EdgeMeasurement>& edges) {
-  if (edges.empty()) return 0.0;
+AccuracySummary summarize_accuracy(const std::vector<EdgeMeasurement>& edges) {
+  AccuracySummary s;
   double sum = 0.0;
-  for (const auto& e : edges) sum += e.accuracy;
-  return sum / static_cast<double>(edges.size());
+  for (const auto& e : edges) {
+    if (e.measured) {
+      sum += e.accuracy;
+      ++s.measured;
+    } else {
+      ++s.missing;
+    }
+  }
+  if (s.measured > 0) s.mean = sum / static_cast<double>(s.measured);
+  return s;
 }
 
 }  // namespace hmap::pvox
