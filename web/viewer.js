@@ -202,6 +202,7 @@ function addGround(patches) {
 }
 
 function addTrajectory(points) {
+  api.trajectoryDrawn = points.length < 2 ? 0 : points.length;  // poses on the line drawn
   if (points.length < 2) return;
   const geometry = new THREE.BufferGeometry().setFromPoints(points.map(([x, y, z]) => new THREE.Vector3(x, y, z)));
   layers.trajectory.add(new THREE.Line(geometry, new THREE.LineBasicMaterial({ color: 0xff40ff, clippingPlanes: [cut] })));
@@ -348,8 +349,10 @@ async function measureFps(ms) {
 }
 
 const api = {
-  boxesDrawn: 0, lastColumn: null, info: null, version: 0,
+  boxesDrawn: 0, trajectoryDrawn: 0, lastColumn: null, info: null, version: 0,
   setLayer, setView, setCut, setColour, showColumn, pick, settled, renderNow, measureFps,
+  /// A live view still catching up: a map being fetched or tiles in flight.
+  busy() { return reloading || queue.length + inFlight > 0; },
   /// The colour of each pixel, read back from the canvas: [width, height, RGBA bytes, bottom row first].
   pixels() {
     renderNow();
@@ -370,13 +373,13 @@ window.hmapViewer = api;
 
 /// Fetches the map's description and its layers; drops what an earlier map had drawn.
 async function loadMap() {
-  // The version first: a map replaced while this one loads is loaded again at its event.
-  const st = await fetch('/api/status');
-  if (!st.ok) throw new Error(`status: HTTP ${st.status}`);
-  const version = (await st.json()).version;
+  // The map comes with its version (a map replaced while this one loads is loaded again at its
+  // event) and its progress: a page opened during or after a live run shows it at once.
   const r = await fetch('/api/map');
   if (!r.ok) throw new Error(`map: HTTP ${r.status}`);
   const fresh = await r.json();
+  const version = fresh.version;
+  if (fresh.progress && version >= latestEvent) $('progress').textContent = fresh.progress;
   for (const t of tiles.values()) for (const mesh of t.meshes) if (mesh) mesh.geometry.dispose();
   tiles.clear();
   queue.length = 0;
@@ -419,11 +422,11 @@ async function start() {
 
 // A live view (hmap map --view): a new map at each event; the camera stays where the user put it.
 let reloading = false;
+let latestEvent = 0;  // the version of the last event: the map and progress the server is at
 function listen() {
   const events = new EventSource('/api/events');
-  let latest = 0;
   const reload = async () => {
-    if (reloading || latest === api.version) return;
+    if (reloading || latestEvent === api.version) return;
     reloading = true;
     try {
       const fitted = !info.bounds;  // the first HVoxels of a live map: frame them
@@ -439,7 +442,7 @@ function listen() {
   events.onmessage = (e) => {
     const s = JSON.parse(e.data);
     if (s.progress) $('progress').textContent = s.progress;
-    latest = s.version;
+    latestEvent = s.version;
     reload();
   };
 }

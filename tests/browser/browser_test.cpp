@@ -9,9 +9,13 @@
 
 #include <array>
 #include <chrono>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <string>
+#include <vector>
 
+#include "hmap/io/poses.hpp"
 #include "hmap/view/map_scene.hpp"
 #include "serve/test_map.hpp"
 #include "serve/view_process.hpp"
@@ -178,6 +182,83 @@ TEST(Browser, OpensAMapOfManyTiles) {
               r["boxes_drawn"].get<int>(), r["fps"].get<double>(), r["page_timing"]["module"].get<double>(),
               r["page_timing"]["info"].get<double>(), r["page_timing"]["drawn"].get<double>());
   EXPECT_EQ(view.stop(), 0) << view.output();
+  fs::remove_all(dir);
+}
+
+// hmap slam --view as a user watches it: Chromium is up first, then the run starts and the page is
+// opened on the URL it prints; what the page shows is sampled until the run is done and drawn.
+// The map and the path must grow on the page while the scans come in, the progress advance, and
+// the last map drawn be the saved one with a pose per scan. The live view sends a map at most once
+// a second and the page takes a second or two to start, so the run is long enough to be seen:
+// 200 simulated VLP-16 frames of the parking lot (about 25 ms of SLAM each).
+TEST(Browser, FollowsALiveSlamRun) {
+  const Tools tools = find_tools();
+  if (!tools.missing.empty()) GTEST_SKIP() << tools.missing;
+  const fs::path dir = fs::temp_directory_path() / ("hmap_browser_live_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const std::string sim = run_output(hmap_bin() + " simulate --scene parking --sensor vlp16 --sweep --frames 200 --out " + (dir / "sim").string() + " 2>&1");
+  ASSERT_TRUE(fs::exists(dir / "sim" / "poses.txt")) << sim;
+  const int kLiveScans = static_cast<int>(read_poses(dir / "sim" / "poses.txt").size());
+  ASSERT_GT(kLiveScans, 10) << sim;
+
+  const std::string cmd = tools.node + " --experimental-websocket --no-warnings " + HMAP_BROWSER_SCRIPT + " " + tools.chromium +
+                          " --live " + dir.string() + " " + hmap_bin() + " slam --kitti " + (dir / "sim").string() + " --out " +
+                          (dir / "slam").string() + " --view --view-port 0";
+  const std::string out = run_output(cmd);
+  nlohmann::json r;
+  try {
+    r = nlohmann::json::parse(out);
+  } catch (const std::exception&) {
+    FAIL() << "browser_check.mjs printed: " << out;
+  }
+  if (r.contains("skip")) GTEST_SKIP() << r["skip"].get<std::string>();
+  ASSERT_FALSE(r.contains("error")) << r.dump(1);
+  EXPECT_TRUE(r["console_errors"].empty()) << r["console_errors"].dump(1);
+  EXPECT_EQ(r["hmap_exit"], 0) << r["hmap_output"].get<std::string>();  // SIGTERM ends it cleanly
+  EXPECT_NE(r["hmap_output"].get<std::string>().find("still serving"), std::string::npos) << r["hmap_output"].get<std::string>();
+
+  // The maps the page had drawn while the run went on (no reload or tile pending): the progress
+  // line then names the scan of that map, and its path holds a pose per scan.
+  const nlohmann::json& samples = r["samples"];
+  ASSERT_FALSE(samples.empty());
+  std::vector<nlohmann::json> drawn;
+  int last_scan = 0;
+  for (const nlohmann::json& s : samples) {
+    int scan = 0, of = 0;
+    if (std::sscanf(s["progress"].get<std::string>().c_str(), "scan %d of %d", &scan, &of) == 2) {
+      EXPECT_EQ(of, kLiveScans) << s.dump();
+      EXPECT_GE(scan, last_scan) << "the progress went back: " << s.dump();  // it only advances
+      last_scan = scan;
+      if (!s["busy"].get<bool>()) {
+        EXPECT_EQ(s["poses"].get<int>(), scan >= 2 ? scan : 0) << s.dump();
+        EXPECT_LE(s["boxes"].get<int>(), s["hvoxels"].get<int>()) << s.dump();
+        if (drawn.empty() || drawn.back()["version"] != s["version"]) drawn.push_back(s);
+      }
+    }
+  }
+  // At least two maps drawn before the end, the later with more poses and more boxes.
+  ASSERT_GE(drawn.size(), 2U) << "the page saw too little of the run:\n" << samples.dump(1);
+  EXPECT_GT(drawn.back()["poses"].get<int>(), drawn.front()["poses"].get<int>()) << samples.dump(1);
+  EXPECT_GT(drawn.back()["boxes"].get<int>(), drawn.front()["boxes"].get<int>()) << samples.dump(1);
+
+  // The end: the saved map, drawn, with the whole path.
+  const nlohmann::json& last = samples.back();
+  EXPECT_EQ(last["progress"].get<std::string>().rfind("done: " + std::to_string(kLiveScans) + " scans", 0), 0U) << last.dump();
+  EXPECT_FALSE(last["busy"].get<bool>());
+  EXPECT_EQ(last["poses"].get<int>(), kLiveScans);
+  const std::size_t saved = load_hmap(dir / "slam" / "map.hmap").stats().hvoxels;
+  EXPECT_EQ(last["hvoxels"].get<std::size_t>(), saved);
+  EXPECT_GT(last["boxes"].get<int>(), drawn.front()["boxes"].get<int>());
+  EXPECT_LE(last["boxes"].get<std::size_t>(), saved);
+  std::printf("browser, live slam of %d scans: page ready %d ms after the URL, %zu samples, %zu maps drawn during the run "
+              "(scans %s), last %d boxes of %zu HVoxels\n",
+              kLiveScans, r["ready_ms"].get<int>(), samples.size(), drawn.size(),
+              [&] {
+                std::string s;
+                for (const nlohmann::json& d : drawn) s += (s.empty() ? "" : ", ") + std::to_string(d["poses"].get<int>());
+                return s;
+              }().c_str(),
+              last["boxes"].get<int>(), saved);
   fs::remove_all(dir);
 }
 
