@@ -12,7 +12,7 @@
 // prints and samples what the page shows until the run is done and drawn; then SIGTERM to hmap.
 
 import { spawn } from 'node:child_process';
-import { mkdtempSync, rmSync, writeFileSync } from 'node:fs';
+import { mkdtempSync, readFileSync, readdirSync, rmSync, writeFileSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { join } from 'node:path';
 
@@ -24,6 +24,26 @@ const started = Date.now();
 let browser = null;
 let hmap = null;  // --live: the hmap run
 let hmapOutput = '';
+
+/// CPU seconds (user + system) of Chromium's processes so far: the browser and its descendants.
+function chromiumCpuSeconds() {
+  if (!browser) return 0;
+  const stats = [];
+  for (const pid of readdirSync('/proc')) {
+    if (!/^\d+$/.test(pid)) continue;
+    try {
+      const text = readFileSync(`/proc/${pid}/stat`, 'utf8');
+      const f = text.slice(text.lastIndexOf(')') + 2).split(' ');  // fields from the state on
+      stats.push({ pid: Number(pid), ppid: Number(f[1]), ticks: Number(f[11]) + Number(f[12]) });
+    } catch { /* gone meanwhile */ }
+  }
+  const tree = new Set([browser.pid]);
+  for (let grew = true; grew;) {
+    grew = false;
+    for (const s of stats) if (!tree.has(s.pid) && tree.has(s.ppid)) { tree.add(s.pid); grew = true; }
+  }
+  return stats.filter((s) => tree.has(s.pid)).reduce((sum, s) => sum + s.ticks, 0) / 100;  // USER_HZ
+}
 
 function finish(result, code = 0) {
   if (browser) browser.kill('SIGKILL');
@@ -160,7 +180,8 @@ try {
   result.ready_ms = Date.now() - navigateAt;
   await evaluate('window.hmapViewer.settled()');
   result.open_ms = Date.now() - navigateAt;
-  result.page_timing = await evaluate('hmapViewer.timing');
+  result.page_timing = await evaluate('({...hmapViewer.timing, ...hmapViewer.spent})');
+  result.chromium_cpu_s = chromiumCpuSeconds();
   // Where the time went: each request's start and end (ms since navigation), the document's.
   result.resource_timing = await evaluate(`performance.getEntries().filter((e) => e.entryType === 'resource' || e.entryType === 'navigation')
     .map((e) => [e.name.replace(location.origin, ''), Math.round(e.startTime), Math.round(e.responseStart), Math.round(e.responseEnd), e.transferSize])`);

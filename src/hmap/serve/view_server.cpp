@@ -126,6 +126,9 @@ ViewServer::ViewServer(std::shared_ptr<const view::MapScene> initial_scene, Serv
     const int one = 1;
     ::setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
   });
+  // Headers and body go in two writes: with Nagle's algorithm the body waited for the client's
+  // delayed ACK, 40 ms a tile (196 tiles of a million HVoxels: 2.7 s, now well under one).
+  s.set_tcp_nodelay(true);
   s.set_payload_max_length(4096);
   s.set_keep_alive_max_count(100);
   s.set_default_headers({{"X-Content-Type-Options", "nosniff"}, {"Cache-Control", "no-store"}});
