@@ -9,26 +9,36 @@ import { OrbitControls } from '/three/examples/jsm/controls/OrbitControls.js';
 const moduleTop = performance.now();  // three.js fetched, compiled and evaluated
 
 const BOX_BYTES = 32;
-const MAX_REQUESTS = 4;          // tile requests in flight
+const MAX_REQUESTS = 4;          // tile requests in flight (but for the first view's: startRenderer)
 const BOX_BUDGET = 2000000;      // boxes drawn at most: coarser levels beyond
 const CELL_PIXELS = 3;           // a cell smaller than this on screen: the next coarser level
 
 const $ = (id) => document.getElementById(id);
 const status = (text) => { $('status').textContent = text; };
 
-const view = $('view');
-const renderer = new THREE.WebGLRenderer({ antialias: false, preserveDrawingBuffer: true });
-renderer.setPixelRatio(window.devicePixelRatio);
-renderer.setSize(view.clientWidth, view.clientHeight);
-renderer.setClearColor(0x1d2024);
-renderer.localClippingEnabled = true;
-view.appendChild(renderer.domElement);
-const rendererUp = performance.now();  // WebGL (SwiftShader in the tests) started
+// Starting WebGL blocks the page for seconds with software GL (1.2-3.5 s with SwiftShader on the
+// test machine): the map's summary is asked for first, and the renderer made only once the
+// first view's tiles are asked for, all at once (the browser fetches them meanwhile).
+let firstMap = fetch('/api/map');
+firstMap.catch(() => {});  // handled where it is awaited (loadMap)
+
+const view = $('view');  // the canvas fills it: pointer events and sizes are taken from it
+let renderer = null;
+let rendererUp = null;
+function startRenderer() {
+  renderer = new THREE.WebGLRenderer({ antialias: false, preserveDrawingBuffer: true });
+  renderer.setPixelRatio(window.devicePixelRatio);
+  if (renderer) renderer.setSize(view.clientWidth, view.clientHeight);
+  renderer.setClearColor(0x1d2024);
+  renderer.localClippingEnabled = true;
+  view.appendChild(renderer.domElement);
+  rendererUp = performance.now();
+}
 
 const scene = new THREE.Scene();
 const camera = new THREE.PerspectiveCamera(50, view.clientWidth / view.clientHeight, 0.05, 5000);
 camera.up.set(0, 0, 1);  // the map's z is up
-const controls = new OrbitControls(camera, renderer.domElement);
+const controls = new OrbitControls(camera, view);
 controls.screenSpacePanning = true;
 scene.add(new THREE.HemisphereLight(0xffffff, 0x404040, 0.75));
 const sun = new THREE.DirectionalLight(0xffffff, 0.55);
@@ -50,6 +60,7 @@ let colourMode = 'height';
 const tiles = new Map();   // "a,b" -> { a, b, n, centre, box, meshes: [], pending: Set, shown }
 const queue = [];
 let inFlight = 0;
+let maxRequests = Infinity;  // until the renderer is up
 let dirty = true;
 let frames = 0;
 const highlight = new THREE.LineSegments(new THREE.EdgesGeometry(new THREE.BoxBufferGeometry(1, 1, 1)),
@@ -153,7 +164,7 @@ function updateTiles() {
 }
 
 function pump() {
-  while (inFlight < MAX_REQUESTS && queue.length) {
+  while (inFlight < maxRequests && queue.length) {
     const [t, level] = queue.shift();
     ++inFlight;
     fetch(`/api/tile?a=${t.a}&b=${t.b}&level=${level}`)
@@ -246,6 +257,7 @@ function setView(kind) {
 }
 
 function renderNow() {
+  if (!renderer) return;
   const t0 = performance.now();
   renderer.render(scene, camera);
   spent.renderMs += performance.now() - t0; ++spent.renders;
@@ -278,7 +290,7 @@ function setColour(mode) {
 // Clicking a box: the column of its cell (GET /api/column).
 const raycaster = new THREE.Raycaster();
 async function pick(clientX, clientY) {
-  const rect = renderer.domElement.getBoundingClientRect();
+  const rect = view.getBoundingClientRect();
   const ndc = new THREE.Vector2(((clientX - rect.left) / rect.width) * 2 - 1, -((clientY - rect.top) / rect.height) * 2 + 1);
   raycaster.setFromCamera(ndc, camera);
   const visible = layers.hvoxels.visible ? layers.hvoxels.children.filter((m) => m.visible) : [];
@@ -320,8 +332,8 @@ async function showColumn(x, y) {
 }
 
 let down = null;
-renderer.domElement.addEventListener('pointerdown', (e) => { down = [e.clientX, e.clientY]; });
-renderer.domElement.addEventListener('pointerup', (e) => {
+view.addEventListener('pointerdown', (e) => { down = [e.clientX, e.clientY]; });
+view.addEventListener('pointerup', (e) => {
   if (down && Math.hypot(e.clientX - down[0], e.clientY - down[1]) < 4 && e.button === 0) pick(e.clientX, e.clientY);
   down = null;
 });
@@ -335,7 +347,7 @@ controls.addEventListener('change', () => {
 window.addEventListener('resize', () => {
   camera.aspect = view.clientWidth / view.clientHeight;
   camera.updateProjectionMatrix();
-  renderer.setSize(view.clientWidth, view.clientHeight);
+  if (renderer) renderer.setSize(view.clientWidth, view.clientHeight);
   updateTiles();
 });
 for (const name of Object.keys(layers)) $(`layer-${name}`).addEventListener('change', (e) => setLayer(name, e.target.checked));
@@ -382,7 +394,7 @@ const api = {
   /// World (x, y, z) to CSS pixels of the page.
   toScreen(x, y, z) {
     const p = new THREE.Vector3(x, y, z).project(camera);
-    const rect = renderer.domElement.getBoundingClientRect();
+    const rect = view.getBoundingClientRect();
     return [rect.left + (p.x + 1) / 2 * rect.width, rect.top + (1 - p.y) / 2 * rect.height];
   },
 };
@@ -392,7 +404,8 @@ window.hmapViewer = api;
 async function loadMap() {
   // The map comes with its version (a map replaced while this one loads is loaded again at its
   // event) and its progress: a page opened during or after a live run shows it at once.
-  const r = await fetch('/api/map');
+  const r = await (firstMap ?? fetch('/api/map'));
+  firstMap = null;
   if (!r.ok) throw new Error(`map: HTTP ${r.status}`);
   const fresh = await r.json();
   const version = fresh.version;
@@ -420,7 +433,7 @@ async function loadMap() {
 }
 
 async function start() {
-  api.timing = { three: moduleTop, webgl: rendererUp, module: performance.now() };
+  api.timing = { three: moduleTop, module: performance.now() };
   await loadMap();
   setCut(1e6);
   if (info.format === 'pvox') {
@@ -430,7 +443,10 @@ async function start() {
     colourMode = 'density';
   }
   api.timing.info = performance.now();
-  setView(new URLSearchParams(location.search).get('view') === 'top' ? 'top' : 'oblique');
+  setView(new URLSearchParams(location.search).get('view') === 'top' ? 'top' : 'oblique');  // asks for the tiles
+  startRenderer();
+  api.timing.webgl = rendererUp;
+  maxRequests = MAX_REQUESTS;
   await settled();
   api.timing.drawn = performance.now();
   loop();

@@ -193,7 +193,7 @@ TEST(Browser, OpensAMapOfManyTiles) {
   std::printf("browser, %d x %d cells: %d HVoxels in %d view tiles, page open in %d ms (Chromium up in %d ms), "
               "%d boxes drawn, %.1f frames/s turning (SwiftShader); in the page: three.js evaluated at %.0f ms, WebGL up at %.0f ms, "
               "map asked at %.0f ms, summary at %.0f ms, tiles drawn at %.0f ms; %d tile requests, %.1f MB, from %.0f to %.0f ms, waiting "
-              "%.0f ms and transferring %.0f ms in all (4 at a time); meshes built in %.0f ms, %d renders in %.0f ms; "
+              "%.0f ms (queued in the browser included) and transferring %.0f ms summed over them; meshes built in %.0f ms, %d renders in %.0f ms; "
               "CPU to the first frame: server %.2f s, Chromium %.2f s\n",
               side, side, hvoxels, r["info"]["tiles"].get<int>(), r["open_ms"].get<int>(), r["chromium_ms"].get<int>(),
               r["boxes_drawn"].get<int>(), r["fps"].get<double>(), pt["three"].get<double>(), pt["webgl"].get<double>(), pt["module"].get<double>(), pt["info"].get<double>(),
