@@ -158,6 +158,7 @@ function updateTiles() {
   }
   queue.sort((p, q) => camera.position.distanceTo(p[0].centre) - camera.position.distanceTo(q[0].centre));
   pump();
+  if (!queue.length && !inFlight && stale.length) dropStale();
   api.boxesDrawn = drawn;
   status(`${info.hvoxels} ${info.format === 'pvox' ? 'voxels' : 'HVoxels'}, ${tiles.size} tiles; ${drawn} boxes drawn` + (queue.length + inFlight ? `, loading ${queue.length + inFlight}` : ''));
   dirty = true;
@@ -170,6 +171,7 @@ function pump() {
     fetch(`/api/tile?a=${t.a}&b=${t.b}&level=${level}`)
       .then((r) => { if (!r.ok) throw new Error(`tile ${t.a},${t.b}: HTTP ${r.status}`); return r.arrayBuffer(); })
       .then((buffer) => {
+        if (t.dropped) return;  // a tile of a map replaced meanwhile
         const mesh = makeTileMesh(buffer);
         mesh.visible = false;
         t.meshes[level] = mesh;
@@ -179,6 +181,10 @@ function pump() {
       .finally(() => { t.pending.delete(level); --inFlight; updateTiles(); if (!queue.length && !inFlight) settle(); });
   }
 }
+
+let stale = [];  // meshes of the map before, shown until this one's tiles are in
+function disposeMesh(mesh) { layers.hvoxels.remove(mesh); mesh.geometry.dispose(); }
+function dropStale() { for (const mesh of stale) disposeMesh(mesh); stale = []; dirty = true; }
 
 let settleWaiters = [];
 function settle() { const w = settleWaiters; settleWaiters = []; for (const f of w) f(); }
@@ -382,6 +388,8 @@ const api = {
   setLayer, setView, setCut, setColour, showColumn, pick, settled, renderNow, measureFps,
   /// A live view still catching up: a map being fetched or tiles in flight.
   busy() { return reloading || queue.length + inFlight > 0; },
+  /// Boxes on screen: this map's and those of the one before still shown.
+  boxesOnScreen() { return layers.hvoxels.children.reduce((n, m) => n + (m.visible ? m.count : 0), 0); },
   /// The colour of each pixel, read back from the canvas: [width, height, RGBA bytes, bottom row first].
   pixels() {
     renderNow();
@@ -410,10 +418,15 @@ async function loadMap() {
   const fresh = await r.json();
   const version = fresh.version;
   if (fresh.progress && version >= latestEvent) $('progress').textContent = fresh.progress;
-  for (const t of tiles.values()) for (const mesh of t.meshes) if (mesh) mesh.geometry.dispose();
+  // The boxes on screen stay until the new map's are in (a live view would blink at every map);
+  // answers still coming for the old tiles are dropped.
+  for (const t of tiles.values()) {
+    t.dropped = true;
+    for (const mesh of t.meshes) if (mesh) { if (mesh.visible) stale.push(mesh); else disposeMesh(mesh); }
+  }
   tiles.clear();
   queue.length = 0;
-  for (const name of ['hvoxels', 'grid', 'ground', 'trajectory']) layers[name].remove(...layers[name].children);
+  for (const name of ['grid', 'ground', 'trajectory']) layers[name].remove(...layers[name].children);
   info = fresh;
   api.info = info;
   api.version = version;

@@ -143,7 +143,7 @@ if (live) {
     await evaluate('window.hmapViewer.ready');
     result.ready_ms = Date.now() - navigateAt;
     const state = `(() => { const v = window.hmapViewer; return { progress: document.getElementById('progress').textContent,
-      version: v.version, boxes: v.boxesDrawn, poses: v.trajectoryDrawn, hvoxels: v.info.hvoxels, busy: v.busy() }; })()`;
+      version: v.version, boxes: v.boxesDrawn, on_screen: v.boxesOnScreen(), poses: v.trajectoryDrawn, hvoxels: v.info.hvoxels, busy: v.busy() }; })()`;
     const samples = [];
     let last = '';
     for (;;) {

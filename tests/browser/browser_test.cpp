@@ -242,7 +242,11 @@ TEST(Browser, FollowsALiveSlamRun) {
   ASSERT_FALSE(samples.empty());
   std::vector<nlohmann::json> drawn;
   int last_scan = 0;
+  int last_drawn = 0;  // the boxes of the last map drawn
   for (const nlohmann::json& s : samples) {
+    // A new map does not blink: the boxes of the one before stay on screen until its own are in.
+    EXPECT_GE(s["on_screen"].get<int>(), s["busy"].get<bool>() ? last_drawn : s["boxes"].get<int>()) << s.dump();
+    if (!s["busy"].get<bool>()) last_drawn = s["boxes"].get<int>();
     int scan = 0, of = 0;
     if (std::sscanf(s["progress"].get<std::string>().c_str(), "scan %d of %d", &scan, &of) == 2) {
       EXPECT_EQ(of, kLiveScans) << s.dump();
