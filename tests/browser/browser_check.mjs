@@ -1,6 +1,7 @@
 // Drives headless Chromium over the DevTools protocol (Node's own WebSocket: no npm package) on a
-// running `hmap view`, for tests/serve/browser_test.cpp. Prints one JSON object: what the page
-// showed and did; the C++ test judges it against the map. {"skip": why} when Chromium cannot start.
+// running `hmap view`, or on `hmap slam/map --view` it starts (--live), for
+// tests/browser/browser_test.cpp. Prints one JSON object: what the page showed and did; the C++
+// test judges it against the map. {"skip": why} when Chromium cannot start.
 //
 //   node --experimental-websocket browser_check.mjs CHROMIUM URL OUT_DIR POINTS_JSON
 //   node --experimental-websocket browser_check.mjs CHROMIUM --live OUT_DIR HMAP ARGS...

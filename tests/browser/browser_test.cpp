@@ -2,7 +2,8 @@
 // room, driven by browser_check.mjs over the DevTools protocol. Checks: no console error; the
 // canvas is not blank and shows, at the room's table, floor and walls, the colours of their
 // heights; unticking the HVoxels layer takes them away; a click on the table returns the column
-// the C++ API holds. Skips with a message where Chromium or Node cannot run.
+// the C++ API holds. The same page on a live `hmap slam --view` follows the run. Skips with a
+// message where Chromium or Node cannot run.
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -209,13 +210,13 @@ TEST(Browser, OpensAMapOfManyTiles) {
 // The map and the path must grow on the page while the scans come in, the progress advance, and
 // the last map drawn be the saved one with a pose per scan. The live view sends a map at most once
 // a second and the page takes a second or two to start, so the run is long enough to be seen:
-// 200 simulated VLP-16 frames of the parking lot (about 25 ms of SLAM each).
+// 280 simulated VLP-16 sweeps of the parking lot (--sweep: deskewed, about 20 ms of SLAM each).
 TEST(Browser, FollowsALiveSlamRun) {
   const Tools tools = find_tools();
   if (!tools.missing.empty()) GTEST_SKIP() << tools.missing;
   const fs::path dir = fs::temp_directory_path() / ("hmap_browser_live_" + std::to_string(::getpid()));
   fs::create_directories(dir);
-  const std::string sim = run_output(hmap_bin() + " simulate --scene parking --sensor vlp16 --sweep --frames 200 --out " + (dir / "sim").string() + " 2>&1");
+  const std::string sim = run_output(hmap_bin() + " simulate --scene parking --sensor vlp16 --sweep --frames 280 --out " + (dir / "sim").string() + " 2>&1");
   ASSERT_TRUE(fs::exists(dir / "sim" / "poses.txt")) << sim;
   const int kLiveScans = static_cast<int>(read_poses(dir / "sim" / "poses.txt").size());
   ASSERT_GT(kLiveScans, 10) << sim;
