@@ -194,12 +194,12 @@ TEST(Browser, OpensAMapOfManyTiles) {
   std::printf("browser, %d x %d cells: %d HVoxels in %d view tiles, page open in %d ms (Chromium up in %d ms), "
               "%d boxes drawn, %.1f frames/s turning (SwiftShader); in the page: three.js evaluated at %.0f ms, WebGL up at %.0f ms, "
               "map asked at %.0f ms, summary at %.0f ms, tiles drawn at %.0f ms; %d tile requests, %.1f MB, from %.0f to %.0f ms, waiting "
-              "%.0f ms (queued in the browser included) and transferring %.0f ms summed over them; meshes built in %.0f ms, %d renders in %.0f ms; "
-              "CPU to the first frame: server %.2f s, Chromium %.2f s\n",
+              "%.0f ms (queued in the browser included) and transferring %.0f ms summed over them; meshes built in %.0f ms (the last at %.0f ms), tiles chosen "
+              "%d times in %.0f ms, %d renders in %.0f ms; CPU to the first frame: server %.2f s, Chromium %.2f s\n",
               side, side, hvoxels, r["info"]["tiles"].get<int>(), r["open_ms"].get<int>(), r["chromium_ms"].get<int>(),
               r["boxes_drawn"].get<int>(), r["fps"].get<double>(), pt["three"].get<double>(), pt["webgl"].get<double>(), pt["module"].get<double>(), pt["info"].get<double>(),
               pt["drawn"].get<double>(), tile_requests, tile_bytes / 1e6, tiles_first, tiles_last, tile_wait_ms, tile_transfer_ms,
-              pt["meshMs"].get<double>(), pt["renders"].get<int>(), pt["renderMs"].get<double>(), server_cpu_s,
+              pt["meshMs"].get<double>(), pt["lastMeshAt"].get<double>(), pt["updates"].get<int>(), pt["updateMs"].get<double>(), pt["renders"].get<int>(), pt["renderMs"].get<double>(), server_cpu_s,
               r["chromium_cpu_s"].get<double>());
   EXPECT_EQ(view.stop(), 0) << view.output();
   fs::remove_all(dir);
