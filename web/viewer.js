@@ -28,7 +28,7 @@ let rendererUp = null;
 function startRenderer() {
   renderer = new THREE.WebGLRenderer({ antialias: false, preserveDrawingBuffer: true });
   renderer.setPixelRatio(window.devicePixelRatio);
-  if (renderer) renderer.setSize(view.clientWidth, view.clientHeight);
+  renderer.setSize(view.clientWidth, view.clientHeight);
   renderer.setClearColor(0x1d2024);
   renderer.localClippingEnabled = true;
   view.appendChild(renderer.domElement);
