@@ -6,26 +6,39 @@
 import * as THREE from '/three/build/three.module.js';
 import { OrbitControls } from '/three/examples/jsm/controls/OrbitControls.js';
 
+const moduleTop = performance.now();  // three.js fetched, compiled and evaluated
+
 const BOX_BYTES = 32;
-const MAX_REQUESTS = 4;          // tile requests in flight
+const MAX_REQUESTS = 4;          // tile requests in flight (but for the first view's: startRenderer)
 const BOX_BUDGET = 2000000;      // boxes drawn at most: coarser levels beyond
 const CELL_PIXELS = 3;           // a cell smaller than this on screen: the next coarser level
 
 const $ = (id) => document.getElementById(id);
 const status = (text) => { $('status').textContent = text; };
 
-const view = $('view');
-const renderer = new THREE.WebGLRenderer({ antialias: false, preserveDrawingBuffer: true });
-renderer.setPixelRatio(window.devicePixelRatio);
-renderer.setSize(view.clientWidth, view.clientHeight);
-renderer.setClearColor(0x1d2024);
-renderer.localClippingEnabled = true;
-view.appendChild(renderer.domElement);
+// Starting WebGL blocks the page for seconds with software GL (1.2-3.5 s with SwiftShader on the
+// test machine): the map's summary is asked for first, and the renderer made only once the
+// first view's tiles are asked for, all at once (the browser fetches them meanwhile).
+let firstMap = fetch('/api/map');
+firstMap.catch(() => {});  // handled where it is awaited (loadMap)
+
+const view = $('view');  // the canvas fills it: pointer events and sizes are taken from it
+let renderer = null;
+let rendererUp = null;
+function startRenderer() {
+  renderer = new THREE.WebGLRenderer({ antialias: false, preserveDrawingBuffer: true });
+  renderer.setPixelRatio(window.devicePixelRatio);
+  renderer.setSize(view.clientWidth, view.clientHeight);
+  renderer.setClearColor(0x1d2024);
+  renderer.localClippingEnabled = true;
+  view.appendChild(renderer.domElement);
+  rendererUp = performance.now();
+}
 
 const scene = new THREE.Scene();
 const camera = new THREE.PerspectiveCamera(50, view.clientWidth / view.clientHeight, 0.05, 5000);
 camera.up.set(0, 0, 1);  // the map's z is up
-const controls = new OrbitControls(camera, renderer.domElement);
+const controls = new OrbitControls(camera, view);
 controls.screenSpacePanning = true;
 scene.add(new THREE.HemisphereLight(0xffffff, 0x404040, 0.75));
 const sun = new THREE.DirectionalLight(0xffffff, 0.55);
@@ -47,6 +60,7 @@ let colourMode = 'height';
 const tiles = new Map();   // "a,b" -> { a, b, n, centre, box, meshes: [], pending: Set, shown }
 const queue = [];
 let inFlight = 0;
+let maxRequests = Infinity;  // until the renderer is up
 let dirty = true;
 let frames = 0;
 const highlight = new THREE.LineSegments(new THREE.EdgesGeometry(new THREE.BoxBufferGeometry(1, 1, 1)),
@@ -61,7 +75,16 @@ function densityColour(d, out, k) {
   out[k] = 60 + 195 * t; out[k + 1] = 20 + 210 * t; out[k + 2] = 110 - 80 * t;
 }
 
+// Where the opening's time goes (the browser test's measurements): ms spent building tile meshes
+// from their bytes, and in renderer.render (SwiftShader's GL work lands there).
+const spent = { meshMs: 0, meshes: 0, renderMs: 0, renders: 0, lastMeshAt: 0, updateMs: 0, updates: 0 };
+
 function makeTileMesh(buffer) {
+  const t0 = performance.now();
+  try { return buildTileMesh(buffer); } finally { spent.meshMs += performance.now() - t0; ++spent.meshes; }
+}
+
+function buildTileMesh(buffer) {
   const n = buffer.byteLength / BOX_BYTES;
   const f = new Float32Array(buffer);
   const u = new Uint8Array(buffer);
@@ -100,6 +123,11 @@ const projScreen = new THREE.Matrix4();
 
 // Which tiles to show at which level; asks for the ones not loaded yet, nearest first.
 function updateTiles() {
+  const t0 = performance.now();
+  try { chooseTiles(); } finally { spent.updateMs += performance.now() - t0; ++spent.updates; }
+}
+
+function chooseTiles() {
   if (!info) return;
   camera.updateMatrixWorld();
   projScreen.multiplyMatrices(camera.projectionMatrix, camera.matrixWorldInverse);
@@ -135,27 +163,47 @@ function updateTiles() {
   }
   queue.sort((p, q) => camera.position.distanceTo(p[0].centre) - camera.position.distanceTo(q[0].centre));
   pump();
+  if (!queue.length && !inFlight && stale.length) dropStale();
   api.boxesDrawn = drawn;
   status(`${info.hvoxels} ${info.format === 'pvox' ? 'voxels' : 'HVoxels'}, ${tiles.size} tiles; ${drawn} boxes drawn` + (queue.length + inFlight ? `, loading ${queue.length + inFlight}` : ''));
   dirty = true;
 }
 
 function pump() {
-  while (inFlight < MAX_REQUESTS && queue.length) {
+  while (inFlight < maxRequests && queue.length) {
     const [t, level] = queue.shift();
     ++inFlight;
     fetch(`/api/tile?a=${t.a}&b=${t.b}&level=${level}`)
       .then((r) => { if (!r.ok) throw new Error(`tile ${t.a},${t.b}: HTTP ${r.status}`); return r.arrayBuffer(); })
       .then((buffer) => {
+        if (t.dropped) return;  // a tile of a map replaced meanwhile
         const mesh = makeTileMesh(buffer);
         mesh.visible = false;
         t.meshes[level] = mesh;
+        spent.lastMeshAt = performance.now();
         layers.hvoxels.add(mesh);
       })
       .catch((e) => { t.failed.add(level); console.error(e.message); })
-      .finally(() => { t.pending.delete(level); --inFlight; updateTiles(); if (!queue.length && !inFlight) settle(); });
+      .finally(() => { t.pending.delete(level); --inFlight; scheduleUpdate(); });
   }
 }
+
+// Tiles are chosen again once for the answers that came together, not once per answer: the 196
+// of the first view of a million HVoxels arrive at once, and choosing took 1.3 ms each time.
+let updateScheduled = false;
+function scheduleUpdate() {
+  if (updateScheduled) return;
+  updateScheduled = true;
+  setTimeout(() => {
+    updateScheduled = false;
+    updateTiles();
+    if (!queue.length && !inFlight) settle();
+  }, 0);
+}
+
+let stale = [];  // meshes of the map before, shown until this one's tiles are in
+function disposeMesh(mesh) { layers.hvoxels.remove(mesh); mesh.geometry.dispose(); }
+function dropStale() { for (const mesh of stale) disposeMesh(mesh); stale = []; dirty = true; }
 
 let settleWaiters = [];
 function settle() { const w = settleWaiters; settleWaiters = []; for (const f of w) f(); }
@@ -202,6 +250,7 @@ function addGround(patches) {
 }
 
 function addTrajectory(points) {
+  api.trajectoryDrawn = points.length < 2 ? 0 : points.length;  // poses on the line drawn
   if (points.length < 2) return;
   const geometry = new THREE.BufferGeometry().setFromPoints(points.map(([x, y, z]) => new THREE.Vector3(x, y, z)));
   layers.trajectory.add(new THREE.Line(geometry, new THREE.LineBasicMaterial({ color: 0xff40ff, clippingPlanes: [cut] })));
@@ -232,7 +281,13 @@ function setView(kind) {
   updateTiles();
 }
 
-function renderNow() { renderer.render(scene, camera); ++frames; dirty = false; }
+function renderNow() {
+  if (!renderer) return;
+  const t0 = performance.now();
+  renderer.render(scene, camera);
+  spent.renderMs += performance.now() - t0; ++spent.renders;
+  ++frames; dirty = false;
+}
 
 function loop() {
   requestAnimationFrame(loop);
@@ -260,7 +315,7 @@ function setColour(mode) {
 // Clicking a box: the column of its cell (GET /api/column).
 const raycaster = new THREE.Raycaster();
 async function pick(clientX, clientY) {
-  const rect = renderer.domElement.getBoundingClientRect();
+  const rect = view.getBoundingClientRect();
   const ndc = new THREE.Vector2(((clientX - rect.left) / rect.width) * 2 - 1, -((clientY - rect.top) / rect.height) * 2 + 1);
   raycaster.setFromCamera(ndc, camera);
   const visible = layers.hvoxels.visible ? layers.hvoxels.children.filter((m) => m.visible) : [];
@@ -302,8 +357,8 @@ async function showColumn(x, y) {
 }
 
 let down = null;
-renderer.domElement.addEventListener('pointerdown', (e) => { down = [e.clientX, e.clientY]; });
-renderer.domElement.addEventListener('pointerup', (e) => {
+view.addEventListener('pointerdown', (e) => { down = [e.clientX, e.clientY]; });
+view.addEventListener('pointerup', (e) => {
   if (down && Math.hypot(e.clientX - down[0], e.clientY - down[1]) < 4 && e.button === 0) pick(e.clientX, e.clientY);
   down = null;
 });
@@ -317,7 +372,7 @@ controls.addEventListener('change', () => {
 window.addEventListener('resize', () => {
   camera.aspect = view.clientWidth / view.clientHeight;
   camera.updateProjectionMatrix();
-  renderer.setSize(view.clientWidth, view.clientHeight);
+  if (renderer) renderer.setSize(view.clientWidth, view.clientHeight);
   updateTiles();
 });
 for (const name of Object.keys(layers)) $(`layer-${name}`).addEventListener('change', (e) => setLayer(name, e.target.checked));
@@ -348,8 +403,12 @@ async function measureFps(ms) {
 }
 
 const api = {
-  boxesDrawn: 0, lastColumn: null, info: null, version: 0,
+  boxesDrawn: 0, trajectoryDrawn: 0, lastColumn: null, info: null, version: 0, spent,
   setLayer, setView, setCut, setColour, showColumn, pick, settled, renderNow, measureFps,
+  /// A live view still catching up: a map being fetched or tiles in flight.
+  busy() { return reloading || queue.length + inFlight > 0; },
+  /// Boxes on screen: this map's and those of the one before still shown.
+  boxesOnScreen() { return layers.hvoxels.children.reduce((n, m) => n + (m.visible ? m.count : 0), 0); },
   /// The colour of each pixel, read back from the canvas: [width, height, RGBA bytes, bottom row first].
   pixels() {
     renderNow();
@@ -362,7 +421,7 @@ const api = {
   /// World (x, y, z) to CSS pixels of the page.
   toScreen(x, y, z) {
     const p = new THREE.Vector3(x, y, z).project(camera);
-    const rect = renderer.domElement.getBoundingClientRect();
+    const rect = view.getBoundingClientRect();
     return [rect.left + (p.x + 1) / 2 * rect.width, rect.top + (1 - p.y) / 2 * rect.height];
   },
 };
@@ -370,17 +429,23 @@ window.hmapViewer = api;
 
 /// Fetches the map's description and its layers; drops what an earlier map had drawn.
 async function loadMap() {
-  // The version first: a map replaced while this one loads is loaded again at its event.
-  const st = await fetch('/api/status');
-  if (!st.ok) throw new Error(`status: HTTP ${st.status}`);
-  const version = (await st.json()).version;
-  const r = await fetch('/api/map');
+  // The map comes with its version (a map replaced while this one loads is loaded again at its
+  // event) and its progress: a page opened during or after a live run shows it at once.
+  const r = await (firstMap ?? fetch('/api/map'));
+  firstMap = null;
   if (!r.ok) throw new Error(`map: HTTP ${r.status}`);
   const fresh = await r.json();
-  for (const t of tiles.values()) for (const mesh of t.meshes) if (mesh) mesh.geometry.dispose();
+  const version = fresh.version;
+  if (fresh.progress && version >= latestEvent) $('progress').textContent = fresh.progress;
+  // The boxes on screen stay until the new map's are in (a live view would blink at every map);
+  // answers still coming for the old tiles are dropped.
+  for (const t of tiles.values()) {
+    t.dropped = true;
+    for (const mesh of t.meshes) if (mesh) { if (mesh.visible) stale.push(mesh); else disposeMesh(mesh); }
+  }
   tiles.clear();
   queue.length = 0;
-  for (const name of ['hvoxels', 'grid', 'ground', 'trajectory']) layers[name].remove(...layers[name].children);
+  for (const name of ['grid', 'ground', 'trajectory']) layers[name].remove(...layers[name].children);
   info = fresh;
   api.info = info;
   api.version = version;
@@ -400,7 +465,7 @@ async function loadMap() {
 }
 
 async function start() {
-  api.timing = { module: performance.now() };
+  api.timing = { three: moduleTop, module: performance.now() };
   await loadMap();
   setCut(1e6);
   if (info.format === 'pvox') {
@@ -410,7 +475,10 @@ async function start() {
     colourMode = 'density';
   }
   api.timing.info = performance.now();
-  setView(new URLSearchParams(location.search).get('view') === 'top' ? 'top' : 'oblique');
+  setView(new URLSearchParams(location.search).get('view') === 'top' ? 'top' : 'oblique');  // asks for the tiles
+  startRenderer();
+  api.timing.webgl = rendererUp;
+  maxRequests = MAX_REQUESTS;
   await settled();
   api.timing.drawn = performance.now();
   loop();
@@ -419,11 +487,11 @@ async function start() {
 
 // A live view (hmap map --view): a new map at each event; the camera stays where the user put it.
 let reloading = false;
+let latestEvent = 0;  // the version of the last event: the map and progress the server is at
 function listen() {
   const events = new EventSource('/api/events');
-  let latest = 0;
   const reload = async () => {
-    if (reloading || latest === api.version) return;
+    if (reloading || latestEvent === api.version) return;
     reloading = true;
     try {
       const fitted = !info.bounds;  // the first HVoxels of a live map: frame them
@@ -439,7 +507,7 @@ function listen() {
   events.onmessage = (e) => {
     const s = JSON.parse(e.data);
     if (s.progress) $('progress').textContent = s.progress;
-    latest = s.version;
+    latestEvent = s.version;
     reload();
   };
 }

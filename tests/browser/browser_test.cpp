@@ -2,16 +2,21 @@
 // room, driven by browser_check.mjs over the DevTools protocol. Checks: no console error; the
 // canvas is not blank and shows, at the room's table, floor and walls, the colours of their
 // heights; unticking the HVoxels layer takes them away; a click on the table returns the column
-// the C++ API holds. Skips with a message where Chromium or Node cannot run.
+// the C++ API holds. The same page on a live `hmap slam --view` follows the run. Skips with a
+// message where Chromium or Node cannot run.
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
 #include <array>
 #include <chrono>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <string>
+#include <vector>
 
+#include "hmap/io/poses.hpp"
 #include "hmap/view/map_scene.hpp"
 #include "serve/test_map.hpp"
 #include "serve/view_process.hpp"
@@ -163,6 +168,7 @@ TEST(Browser, OpensAMapOfManyTiles) {
   ViewProcess view({(dir / "room.hmap").string(), "--port", "0"});
   ASSERT_FALSE(view.url().empty()) << view.output();
   const nlohmann::json r = check_in_browser(tools, view.url(), dir, nlohmann::json::array());
+  const double server_cpu_s = view.cpu_seconds();  // the frames/s measurement asks nothing of it
   if (r.contains("skip")) GTEST_SKIP() << r["skip"].get<std::string>();
   ASSERT_FALSE(r.contains("error")) << r.dump(1);
   EXPECT_TRUE(r["console_errors"].empty()) << r["console_errors"].dump(1);
@@ -171,13 +177,112 @@ TEST(Browser, OpensAMapOfManyTiles) {
   EXPECT_GT(r["boxes_drawn"].get<int>(), 0);
   EXPECT_LE(r["boxes_drawn"].get<int>(), hvoxels);
   EXPECT_GT(r["fps"].get<double>(), 0.0);
+  // Where the opening went: the tile requests (waiting for the server's first byte: encoding and
+  // queueing; then the transfer), building meshes from their bytes, GL.
+  int tile_requests = 0;
+  double tile_bytes = 0.0, tile_wait_ms = 0.0, tile_transfer_ms = 0.0, tiles_first = 1e9, tiles_last = 0.0;
+  for (const nlohmann::json& e : r["resource_timing"]) {
+    if (e[0].get<std::string>().rfind("/api/tile", 0) != 0) continue;
+    ++tile_requests;
+    tile_bytes += e[4].get<double>();
+    tile_wait_ms += e[2].get<double>() - e[1].get<double>();
+    tile_transfer_ms += e[3].get<double>() - e[2].get<double>();
+    tiles_first = std::min(tiles_first, e[1].get<double>());
+    tiles_last = std::max(tiles_last, e[3].get<double>());
+  }
+  const nlohmann::json& pt = r["page_timing"];
   std::printf("browser, %d x %d cells: %d HVoxels in %d view tiles, page open in %d ms (Chromium up in %d ms), "
-              "%d boxes drawn, %.1f frames/s turning (SwiftShader); in the page: three.js and WebGL up at %.0f ms, "
-              "summary at %.0f ms, tiles drawn at %.0f ms\n",
+              "%d boxes drawn, %.1f frames/s turning (SwiftShader); in the page: three.js evaluated at %.0f ms, WebGL up at %.0f ms, "
+              "map asked at %.0f ms, summary at %.0f ms, tiles drawn at %.0f ms; %d tile requests, %.1f MB, from %.0f to %.0f ms, waiting "
+              "%.0f ms (queued in the browser included) and transferring %.0f ms summed over them; meshes built in %.0f ms (the last at %.0f ms), tiles chosen "
+              "%d times in %.0f ms, %d renders in %.0f ms; CPU to the first frame: server %.2f s, Chromium %.2f s\n",
               side, side, hvoxels, r["info"]["tiles"].get<int>(), r["open_ms"].get<int>(), r["chromium_ms"].get<int>(),
-              r["boxes_drawn"].get<int>(), r["fps"].get<double>(), r["page_timing"]["module"].get<double>(),
-              r["page_timing"]["info"].get<double>(), r["page_timing"]["drawn"].get<double>());
+              r["boxes_drawn"].get<int>(), r["fps"].get<double>(), pt["three"].get<double>(), pt["webgl"].get<double>(), pt["module"].get<double>(), pt["info"].get<double>(),
+              pt["drawn"].get<double>(), tile_requests, tile_bytes / 1e6, tiles_first, tiles_last, tile_wait_ms, tile_transfer_ms,
+              pt["meshMs"].get<double>(), pt["lastMeshAt"].get<double>(), pt["updates"].get<int>(), pt["updateMs"].get<double>(), pt["renders"].get<int>(), pt["renderMs"].get<double>(), server_cpu_s,
+              r["chromium_cpu_s"].get<double>());
   EXPECT_EQ(view.stop(), 0) << view.output();
+  fs::remove_all(dir);
+}
+
+// hmap slam --view as a user watches it: Chromium is up first, then the run starts and the page is
+// opened on the URL it prints; what the page shows is sampled until the run is done and drawn.
+// The map and the path must grow on the page while the scans come in, the progress advance, and
+// the last map drawn be the saved one with a pose per scan. The live view sends a map at most once
+// a second and the page takes a second or two to start, so the run is long enough to be seen:
+// 280 simulated VLP-16 sweeps of the parking lot (--sweep: deskewed, about 20 ms of SLAM each).
+TEST(Browser, FollowsALiveSlamRun) {
+  const Tools tools = find_tools();
+  if (!tools.missing.empty()) GTEST_SKIP() << tools.missing;
+  const fs::path dir = fs::temp_directory_path() / ("hmap_browser_live_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const std::string sim = run_output(hmap_bin() + " simulate --scene parking --sensor vlp16 --sweep --frames 280 --out " + (dir / "sim").string() + " 2>&1");
+  ASSERT_TRUE(fs::exists(dir / "sim" / "poses.txt")) << sim;
+  const int kLiveScans = static_cast<int>(read_poses(dir / "sim" / "poses.txt").size());
+  ASSERT_GT(kLiveScans, 10) << sim;
+
+  const std::string cmd = tools.node + " --experimental-websocket --no-warnings " + HMAP_BROWSER_SCRIPT + " " + tools.chromium +
+                          " --live " + dir.string() + " " + hmap_bin() + " slam --kitti " + (dir / "sim").string() + " --out " +
+                          (dir / "slam").string() + " --view --view-port 0";
+  const std::string out = run_output(cmd);
+  nlohmann::json r;
+  try {
+    r = nlohmann::json::parse(out);
+  } catch (const std::exception&) {
+    FAIL() << "browser_check.mjs printed: " << out;
+  }
+  if (r.contains("skip")) GTEST_SKIP() << r["skip"].get<std::string>();
+  ASSERT_FALSE(r.contains("error")) << r.dump(1);
+  EXPECT_TRUE(r["console_errors"].empty()) << r["console_errors"].dump(1);
+  EXPECT_EQ(r["hmap_exit"], 0) << r["hmap_output"].get<std::string>();  // SIGTERM ends it cleanly
+  EXPECT_NE(r["hmap_output"].get<std::string>().find("still serving"), std::string::npos) << r["hmap_output"].get<std::string>();
+
+  // The maps the page had drawn while the run went on (no reload or tile pending): the progress
+  // line then names the scan of that map, and its path holds a pose per scan.
+  const nlohmann::json& samples = r["samples"];
+  ASSERT_FALSE(samples.empty());
+  std::vector<nlohmann::json> drawn;
+  int last_scan = 0;
+  int last_drawn = 0;  // the boxes of the last map drawn
+  for (const nlohmann::json& s : samples) {
+    // A new map does not blink: the boxes of the one before stay on screen until its own are in.
+    EXPECT_GE(s["on_screen"].get<int>(), s["busy"].get<bool>() ? last_drawn : s["boxes"].get<int>()) << s.dump();
+    if (!s["busy"].get<bool>()) last_drawn = s["boxes"].get<int>();
+    int scan = 0, of = 0;
+    if (std::sscanf(s["progress"].get<std::string>().c_str(), "scan %d of %d", &scan, &of) == 2) {
+      EXPECT_EQ(of, kLiveScans) << s.dump();
+      EXPECT_GE(scan, last_scan) << "the progress went back: " << s.dump();  // it only advances
+      last_scan = scan;
+      if (!s["busy"].get<bool>()) {
+        EXPECT_EQ(s["poses"].get<int>(), scan >= 2 ? scan : 0) << s.dump();
+        EXPECT_LE(s["boxes"].get<int>(), s["hvoxels"].get<int>()) << s.dump();
+        if (drawn.empty() || drawn.back()["version"] != s["version"]) drawn.push_back(s);
+      }
+    }
+  }
+  // At least two maps drawn before the end, the later with more poses and more boxes.
+  ASSERT_GE(drawn.size(), 2U) << "the page saw too little of the run:\n" << samples.dump(1);
+  EXPECT_GT(drawn.back()["poses"].get<int>(), drawn.front()["poses"].get<int>()) << samples.dump(1);
+  EXPECT_GT(drawn.back()["boxes"].get<int>(), drawn.front()["boxes"].get<int>()) << samples.dump(1);
+
+  // The end: the saved map, drawn, with the whole path.
+  const nlohmann::json& last = samples.back();
+  EXPECT_EQ(last["progress"].get<std::string>().rfind("done: " + std::to_string(kLiveScans) + " scans", 0), 0U) << last.dump();
+  EXPECT_FALSE(last["busy"].get<bool>());
+  EXPECT_EQ(last["poses"].get<int>(), kLiveScans);
+  const std::size_t saved = load_hmap(dir / "slam" / "map.hmap").stats().hvoxels;
+  EXPECT_EQ(last["hvoxels"].get<std::size_t>(), saved);
+  EXPECT_GT(last["boxes"].get<int>(), drawn.front()["boxes"].get<int>());
+  EXPECT_LE(last["boxes"].get<std::size_t>(), saved);
+  std::printf("browser, live slam of %d scans: page ready %d ms after the URL, %zu samples, %zu maps drawn during the run "
+              "(scans %s), last %d boxes of %zu HVoxels\n",
+              kLiveScans, r["ready_ms"].get<int>(), samples.size(), drawn.size(),
+              [&] {
+                std::string s;
+                for (const nlohmann::json& d : drawn) s += (s.empty() ? "" : ", ") + std::to_string(d["poses"].get<int>());
+                return s;
+              }().c_str(),
+              last["boxes"].get<int>(), saved);
   fs::remove_all(dir);
 }
 

@@ -13,11 +13,14 @@ namespace hmap::test {
 
 struct HttpReply {
   int status = 0;  ///< 0: no answer
+  std::string headers;  ///< the header lines, as sent
   std::string body;
 };
 
 /// The reply, read until the server closes or `timeout_s` passes without a byte (an event stream).
-inline HttpReply http_request(int port, const std::string& method, const std::string& target, int timeout_s = 5) {
+/// `extra_headers`: lines to add to the request, each ending in "\r\n".
+inline HttpReply http_request(int port, const std::string& method, const std::string& target, int timeout_s = 5,
+                              const std::string& extra_headers = {}) {
   HttpReply reply;
   const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
   if (fd < 0) return reply;
@@ -32,7 +35,7 @@ inline HttpReply http_request(int port, const std::string& method, const std::st
     return reply;
   }
   const std::string request = method + " " + target + " HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n" +
-                              (method == "GET" ? "" : "Content-Length: 0\r\n") + "\r\n";
+                              (method == "GET" ? "" : "Content-Length: 0\r\n") + extra_headers + "\r\n";
   (void)::send(fd, request.data(), request.size(), MSG_NOSIGNAL);
   std::string raw;
   char buf[65536];
@@ -41,7 +44,10 @@ inline HttpReply http_request(int port, const std::string& method, const std::st
   if (raw.rfind("HTTP/1.1 ", 0) != 0 || raw.size() < 12) return reply;
   reply.status = std::stoi(raw.substr(9, 3));
   const std::size_t head_end = raw.find("\r\n\r\n");
-  if (head_end != std::string::npos) reply.body = raw.substr(head_end + 4);
+  if (head_end != std::string::npos) {
+    reply.headers = raw.substr(0, head_end);
+    reply.body = raw.substr(head_end + 4);
+  }
   return reply;
 }
 

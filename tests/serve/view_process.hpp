@@ -57,6 +57,22 @@ class ViewProcess {
   /// "http://127.0.0.1:PORT/", empty when it did not start.
   [[nodiscard]] const std::string& url() const { return url_; }
   [[nodiscard]] const std::string& output() const { return output_; }
+  /// CPU seconds (user + system) the process has used so far (Linux /proc); 0 when not running.
+  [[nodiscard]] double cpu_seconds() const {
+    if (pid_ <= 0) return 0.0;
+    FILE* f = std::fopen(("/proc/" + std::to_string(pid_) + "/stat").c_str(), "r");
+    if (f == nullptr) return 0.0;
+    char buf[1024] = {};
+    const std::size_t n = std::fread(buf, 1, sizeof buf - 1, f);
+    std::fclose(f);
+    const std::string stat(buf, n);
+    const std::size_t close = stat.rfind(')');
+    if (close == std::string::npos) return 0.0;
+    // Fields after "pid (comm) ": state is the 1st, utime the 12th, stime the 13th.
+    unsigned long utime = 0, stime = 0;
+    if (std::sscanf(stat.c_str() + close + 2, "%*c %*d %*d %*d %*d %*d %*u %*u %*u %*u %*u %lu %lu", &utime, &stime) != 2) return 0.0;
+    return static_cast<double>(utime + stime) / static_cast<double>(::sysconf(_SC_CLK_TCK));
+  }
   /// SIGTERM, then the exit code (-1 when killed otherwise).
   int stop() {
     if (pid_ <= 0) return exit_code_;

@@ -172,6 +172,35 @@ TEST_F(ServerTest, MapDataIsWhatTheSceneEncodes) {
   EXPECT_EQ(nlohmann::json::parse(column.body)["hvoxels"].size(), 2U);
 }
 
+// Scripts go as they are even to a browser that takes Brotli: cpp-httplib compresses text/* at
+// Brotli's slowest quality, 3.8 s for three.js.
+TEST_F(ServerTest, ScriptsAreSentUncompressed) {
+  const test::HttpReply js = http_request(port(), "GET", "/three/build/three.module.js", 5, "Accept-Encoding: gzip, deflate, br\r\n");
+  ASSERT_EQ(js.status, 200);
+  EXPECT_EQ(js.body, "export const REVISION = '111';");
+  EXPECT_EQ(js.headers.find("Content-Encoding"), std::string::npos) << js.headers;
+  EXPECT_NE(js.headers.find("Content-Type: application/javascript"), std::string::npos) << js.headers;
+}
+
+// A live view replaces the map: /api/map says which one it is, with its progress, in one answer.
+TEST_F(ServerTest, TheMapComesWithItsVersionAndProgress) {
+  nlohmann::json info = nlohmann::json::parse(http_get(port(), "/api/map").body);
+  EXPECT_EQ(info["version"], 1);
+  EXPECT_EQ(info["progress"], "");
+  EXPECT_EQ(info["hvoxels"], 3);
+  Params p;
+  HMap bigger(p);
+  for (int i = 0; i < 5; ++i) bigger.column_for_update({i, 0}).push_back({0.0F, 0.1F, 5.0F, 0.9F});
+  server_->set_scene(std::make_shared<const view::MapScene>(std::move(bigger), std::vector<GroundPatch>{}, std::nullopt,
+                                                            std::vector<Eigen::Vector3d>{}),
+                     "scan 2 of 5");
+  info = nlohmann::json::parse(http_get(port(), "/api/map").body);
+  EXPECT_EQ(info["version"], 2);
+  EXPECT_EQ(info["progress"], "scan 2 of 5");
+  EXPECT_EQ(info["hvoxels"], 5);
+  EXPECT_EQ(nlohmann::json::parse(http_get(port(), "/api/status").body), nlohmann::json({{"version", 2}, {"progress", "scan 2 of 5"}}));
+}
+
 TEST_F(ServerTest, APortInUseIsNamed) {
   ViewServer second(scene_, {"127.0.0.1", port(), dir_ / "web", dir_ / "three"});
   try {

@@ -6,7 +6,7 @@
 //
 //   GET /, /index.html, /viewer.js, /viewer.css     the page (web_root)
 //   GET /three/<path>.js                            three.js modules (three_root)
-//   GET /api/map                                    MapScene::summary_json()
+//   GET /api/map                                    MapScene::summary_json() with "version", "progress"
 //   GET /api/tile?a=A&b=B&level=L                   box records (map_scene.hpp), octet-stream
 //   GET /api/grid                                   the grid image's bytes, octet-stream
 //   GET /api/column?x=X&y=Y                         column_json()
@@ -67,6 +67,7 @@ class ViewServer {
   [[nodiscard]] std::shared_ptr<const view::MapScene> scene() const;
   /// {"version": V, "progress": "..."} of the map served.
   [[nodiscard]] std::string status_json() const;
+  [[nodiscard]] std::string status_json_locked() const;  ///< scene_mutex_ held
 
   struct Http;  // cpp-httplib, kept out of this header
   std::unique_ptr<Http> http_;
