@@ -99,7 +99,10 @@ SAN_CONFIGURE = CC=clang CXX=clang++ cmake -S . -B $(BUILD_SAN) -G Ninja -DCMAKE
 # the other tests do not. readme_commands runs every command of the README and docs on the real
 # data to keep the documents true (49 s in Release, the longest test under ASan, alone on its core
 # at the end of the run); the code it runs is run under ASan by the CLI tests and fuzzed.
-SAN_EXCLUDE := ^(BoundedTest.AGibibyteOfRandomBytesIsRejected|TornFileTest\..*|readme_commands)$$
+# Browser.FollowsALiveSlamRun simulates 280 sweeps and follows their SLAM run in Chromium under an
+# 80 s cap: under ASan that run alone takes minutes; the server's live updates it watches are run
+# under ASan by ServerTest, the SLAM by slam_tests.
+SAN_EXCLUDE := ^(BoundedTest.AGibibyteOfRandomBytesIsRejected|TornFileTest\..*|readme_commands|Browser.FollowsALiveSlamRun)$$
 
 test-sanitize: deps test-deps ros2-test-deps
 	$(SAN_CONFIGURE)
