@@ -163,12 +163,13 @@ void run_slam(const SlamOptions& o) {
   std::size_t degenerate = 0;
   std::size_t coarse = 0;
   std::size_t skipped = 0;
+  std::size_t heading_only = 0;
   std::size_t iterations = 0;
   double score_sum = 0.0;
   std::string log = "scan,matched,converged,iterations,initial_cost,final_cost,score,hvoxels,degenerate,coarse_search,"
                     "skipped,eig0,eig1,eig2,guess_x,guess_y,guess_yaw,x,y,yaw,z,roll,pitch,attitude_fit,surfaces,surface_rms,"
                     "observable_x,observable_y,observable_z,observable_roll,observable_pitch,observable_yaw,planar_passes,deskewed,"
-                    "imu,tilt_hypotheses,tilt_from_floor,ms\n";
+                    "imu,tilt_hypotheses,tilt_from_floor,heading_only,ms\n";
 #ifdef HMAP_HAVE_VIEW
   LiveView live(o.view);  // the map and the estimated path in the browser, as they grow
   std::vector<Eigen::Vector3d> path;
@@ -232,14 +233,14 @@ void run_slam(const SlamOptions& o) {
       const auto& af = step.attitude;
       log += format(
                     "%zu,%d,%d,%d,%.6g,%.6g,%.6g,%zu,%d,%d,%d,%.6g,%.6g,%.6g,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,"
-                    "%d,%zu,%.4f,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%.3f\n",
+                    "%d,%zu,%.4f,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%.3f\n",
                     k, step.matched ? 1 : 0, m.converged ? 1 : 0, m.iterations, m.initial_cost, m.final_cost, m.score,
                     m.hvoxels_used, m.degenerate ? 1 : 0, m.coarse_search ? 1 : 0, m.skipped ? 1 : 0, m.eigenvalues(0),
                     m.eigenvalues(1), m.eigenvalues(2), step.guess.x, step.guess.y, step.guess.yaw, xi.x, xi.y, xi.yaw,
                     at.z, at.roll, at.pitch, af.ran ? 1 : 0, af.surfaces, af.rms, step.observable[0] ? 1 : 0,
                     step.observable[1] ? 1 : 0, step.observable[2] ? 1 : 0, step.observable[3] ? 1 : 0,
                     step.observable[4] ? 1 : 0, step.observable[5] ? 1 : 0, step.planar_passes, step.deskewed ? 1 : 0,
-                    step.imu_used ? 1 : 0, step.tilt_hypotheses, step.tilt_from_floor ? 1 : 0, ms);
+                    step.imu_used ? 1 : 0, step.tilt_hypotheses, step.tilt_from_floor ? 1 : 0, m.heading_only ? 1 : 0, ms);
     }
     estimate.push_back(step.T_map_sensor);
     if (step.matched) {
@@ -247,6 +248,7 @@ void run_slam(const SlamOptions& o) {
       degenerate += step.match.degenerate ? 1 : 0;
       coarse += step.match.coarse_search ? 1 : 0;
       skipped += step.match.skipped ? 1 : 0;
+      heading_only += step.match.heading_only ? 1 : 0;
       iterations += static_cast<std::size_t>(step.match.iterations);
       score_sum += step.match.skipped ? 0.0 : step.match.score;
     }
@@ -284,12 +286,14 @@ void run_slam(const SlamOptions& o) {
   std::printf(
       "SLAM on %zu scans: %.1f ms per scan (%.1f scans/s, matching and map update), %.1f Gauss-Newton "
       "iterations per scan, %zu of %zu matches converged, %zu degenerate, %zu needed the coarse search, "
-      "%zu kept the guess (fewer than %zu HVoxels), mean M_H %.3f. The map has %zu cells and %zu HVoxels (cell %.3f m). Wrote %s/{poses.txt, poses_tum.txt, "
+      "%zu kept the guess (fewer than %zu HVoxels)%s, mean M_H %.3f. The map has %zu cells and %zu HVoxels (cell %.3f m). Wrote %s/{poses.txt, poses_tum.txt, "
       "map.hmap, trajectory.png, matches.csv}%s. Attitude (z, roll, pitch): %s.%s%s%s Deskewed: %zu of %zu scans "
       "(per-point time).\n",
       n, n > 0 ? ms_total / static_cast<double>(n) : 0.0,
       ms_total > 0.0 ? 1000.0 * static_cast<double>(n) / ms_total : 0.0, static_cast<double>(iterations) / matched,
-      converged, n > 0 ? n - 1 : 0, degenerate, coarse, skipped, slam::ScanMatcher::kMinHVoxels, score_sum / scored,
+      converged, n > 0 ? n - 1 : 0, degenerate, coarse, skipped, slam::ScanMatcher::kMinHVoxels,
+      heading_only > 0 ? format(", %zu turned their yaw alone on the thin HVoxels (x, y from odometry)", heading_only).c_str() : "",
+      score_sum / scored,
       st.cells, st.hvoxels, params.map.cell_size, o.out.c_str(), truth ? " (truth in white, estimate in magenta)" : "",
       attitude ? "given (the poses of the input or --attitude-from)"
                : imu ? "estimated from the scans with the IMU's gravity as prior"

@@ -351,6 +351,7 @@ py::dict slam_step_dict(const slam::SlamStep& step) {
   d["degenerate"] = m.degenerate;
   d["coarse_search"] = m.coarse_search;
   d["skipped"] = m.skipped;
+  d["heading_only"] = m.heading_only;
   py::dict fit;
   fit["ran"] = af.ran;
   fit["iterations"] = af.iterations;
@@ -736,7 +737,7 @@ PYBIND11_MODULE(_hmap, m) {
            "and yaw start the match (odometry; None: constant velocity). Runs without the GIL. Returns the step as "
            "a dict: T_map_sensor (4x4, at the stamp), T_map_merged (4x4, the pose the scan was merged at, "
            "merged_at_s [s] after the stamp: the sweep's middle when deskewed by the estimates' velocity), matched, converged, iterations, initial_cost, final_cost, score (mean M_H), "
-           "hvoxels_used, eigenvalues, degenerate, coarse_search, skipped, attitude_fit, observable ({'x': bool, "
+           "hvoxels_used, eigenvalues, degenerate, coarse_search, skipped, heading_only, attitude_fit, observable ({'x': bool, "
            "... 'yaw': bool}), planar_passes, deskewed, sweep_velocity, imu_used, tilt_hypotheses, tilt_from_floor, "
            "mapping (the map update's figures).")
       .def("start_at_height", [](PySlam& self, double z) {

@@ -333,12 +333,14 @@ TEST(ScanMatcher, ThinHeadingMatchTurnsByTheKerbsAndKeepsTheOdometrysPosition) {
   const MatchResult kept = keep.match(s.scan_level, s.map, odometry, CoarseSearch::kWhenFailed, std::nullopt,
                                       ThinFallback::kNone, prior);
   EXPECT_TRUE(kept.skipped);
+  EXPECT_FALSE(kept.heading_only);
   EXPECT_DOUBLE_EQ(kept.pose.yaw, odometry.yaw);
 
   ScanMatcher heading(p);
   const MatchResult turned = heading.match(s.scan_level, s.map, odometry, CoarseSearch::kWhenFailed, std::nullopt,
                                            ThinFallback::kHeading, prior);
   EXPECT_FALSE(turned.skipped);
+  EXPECT_TRUE(turned.heading_only);
   EXPECT_GE(turned.hvoxels_used, ScanMatcher::kMinHVoxels);
   // From 1.5 deg to under 0.5 (0.44 measured; the kerbs are seen within a few metres only, where
   // the map is known all around, and a 0.4 deg turn moves them 3 cm there, an eighth of a cell).

@@ -485,6 +485,7 @@ MatchResult ScanMatcher::match(const ScanHVoxels& scan_level, const HMap& map, c
     // What the scan told is its information along the basis only; the rest is the guess's.
     const Eigen::Matrix3d P = basis_ * (basis_.transpose() * basis_).inverse() * basis_.transpose();
     scan_information = P * result.hessian * P;
+    result.heading_only = true;
     result.degenerate = true;
     result.observable[0] = false;
     result.observable[1] = false;

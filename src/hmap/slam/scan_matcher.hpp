@@ -67,6 +67,9 @@ struct MatchResult {
   std::array<bool, 3> observable{true, true, true};
   bool degenerate = false;         ///< smallest / largest curvature < slam.degeneracy_ratio
   bool coarse_search = false;      ///< the coarse search ran (Gauss-Newton looked failed)
+  /// Too few HVoxels were tall enough and the thin ones turned the yaw alone (ThinFallback::kHeading):
+  /// x and y are the guess's.
+  bool heading_only = false;
   /// Fewer than ScanMatcher::kMinHVoxels were selected: no matching, `pose` is the guess
   /// (also flagged degenerate, not converged).
   bool skipped = false;
