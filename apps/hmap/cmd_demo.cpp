@@ -65,7 +65,7 @@ std::string run_demo_into(const DemoOptions& o, const std::filesystem::path& dir
   write_points_ply(dir / "sequence" / "truth_ground.ply", rec.truth_ground);
 
   // 2. Map with the true poses.
-  const bool outdoor = o.sensor == "vlp16" || o.sensor == "hdl64";
+  const bool outdoor = sim::is_spinning_lidar(o.sensor);
   const Params params = outdoor ? outdoor_preset() : indoor_preset();
   Mapper mapper(params);
   Progress map_progress("mapping", rec.scans.size());
@@ -136,8 +136,8 @@ void add_demo_command(CLI::App& app) {
   auto* cmd = app.add_subcommand("demo", "Simulate a recording, map it, evaluate the map against the truth, draw it");
   cmd->add_option("--out,-o", opts->out, "Output folder")->capture_default_str();
   cmd->add_option("--scene", opts->scene, "office, parking or boxes")->check(CLI::IsMember({"office", "parking", "boxes"}))->capture_default_str();
-  cmd->add_option("--sensor", opts->sensor, "vlp16, hdl64, kinect, utm30lx-tilt, utm30lx-yaw")
-      ->check(CLI::IsMember({"vlp16", "hdl64", "kinect", "utm30lx-tilt", "utm30lx-yaw"}))
+  cmd->add_option("--sensor", opts->sensor, sim::sensor_names_text())
+      ->check(CLI::IsMember(sim::sensor_names()))
       ->capture_default_str();
   cmd->add_option("--seed", opts->seed, "Noise seed")->check(kCount)->capture_default_str();
   cmd->add_option("--frames", opts->frames, "Only the first N frames of the path (default: all)")->check(kCount);

@@ -85,8 +85,8 @@ void add_simulate_command(CLI::App& app) {
       ->check(CLI::IsMember({"office", "parking", "boxes"}))
       ->capture_default_str();
   cmd->add_option("--scene-file", opts->scene_file, "A JSON scene description instead of a built-in scene");
-  cmd->add_option("--sensor", opts->spec.sensor, "vlp16, hdl64, kinect, utm30lx-tilt, utm30lx-yaw")
-      ->check(CLI::IsMember({"vlp16", "hdl64", "kinect", "utm30lx-tilt", "utm30lx-yaw"}))
+  cmd->add_option("--sensor", opts->spec.sensor, sim::sensor_names_text())
+      ->check(CLI::IsMember(sim::sensor_names()))
       ->capture_default_str();
   cmd->add_option("--frames", opts->spec.frames, "Number of frames (default: the whole path)")->check(kCount);
   cmd->add_option("--stride", opts->spec.stride, "Keep every N-th frame of the 10 Hz path")->capture_default_str();

@@ -263,7 +263,7 @@ void bind_sim(py::module_& m) {
       .def("__len__", [](const sim::Trajectory& t) { return t.T_world_sensor.size(); });
 
   py::class_<PySensor>(s, "Sensor",
-      "A simulated sensor by the name `hmap simulate --sensor` takes: vlp16 (Velodyne VLP-16), hdl64 (HDL-64E), "
+      "A simulated sensor by the name `hmap simulate --sensor` takes: vlp16 (Velodyne VLP-16), hdl64 (HDL-64E), os0-64 (Ouster OS0-64), "
       "kinect (Kinect One depth), utm30lx-tilt / utm30lx-yaw (Hokuyo UTM-30LX on a tilting / turning unit). "
       "Its noise comes from `seed`: the same seed and the same calls give the same points.")
       .def(py::init([](const std::string& name, std::uint64_t seed, bool noise) {
@@ -290,7 +290,7 @@ void bind_sim(py::module_& m) {
          "primitive (uint32), kind (uint8), time (None), rays, no_return, out_of_range, dropped.")
       .def("sweep", [](PySensor& self, const sim::Scene& scene, const sim::Trajectory& path, double t0) {
         auto* lidar = std::get_if<sim::SpinningLidar>(&self.sensor);
-        if (lidar == nullptr) throw py::value_error("sweep needs a spinning lidar (vlp16 or hdl64), not '" + self.name + "'");
+        if (lidar == nullptr) throw py::value_error("sweep needs a spinning lidar (vlp16, hdl64 or os0-64), not '" + self.name + "'");
         if (path.T_world_sensor.empty()) throw py::value_error("sweep: the trajectory is empty");
         finite_time(t0, "t0");
         sim::SimulatedScan scan;

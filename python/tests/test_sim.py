@@ -63,6 +63,21 @@ def test_parking_vlp16_equals_the_cli(tmp_path):
     np.testing.assert_allclose(read_kitti_poses(out / "odometry.txt"), odometry, atol=1e-12)
 
 
+def test_parking_os0_equals_the_cli(tmp_path):
+    # The OS0-64 preset: 64 rings over +-45 deg, 1024 columns, on the car like the other spinning lidars.
+    out = simulate_cli(tmp_path, "--scene", "parking", "--sensor", "os0-64", "--seed", "5")
+    path = hmap.sim.car_path(hmap.sim.route("parking"))
+    lidar = hmap.sim.Sensor("os0-64", seed=5)
+    assert "os0-64" in hmap.sim.Sensor.names()
+    scan = lidar.scan(hmap.sim.Scene("parking"), path.poses[0], path.times[0])
+    cli = np.fromfile(out / "velodyne" / "000000.bin", dtype="<f4").reshape(-1, 4)[:, :3]
+    np.testing.assert_array_equal(scan["points"], cli)
+    assert scan["rays"] == 64 * 1024
+    assert set(np.unique(scan["channel"])) <= set(range(64))
+    elevation = np.degrees(np.arctan2(cli[:, 2], np.hypot(cli[:, 0], cli[:, 1])))
+    assert elevation.min() > -45.5 and elevation.max() < 45.5
+
+
 def test_office_kinect_equals_the_cli(tmp_path):
     out = simulate_cli(tmp_path, "--scene", "office", "--sensor", "kinect", "--seed", "2")
     path = hmap.sim.diff_drive_path(hmap.sim.route("office"), sensor_height=0.8)  # the CLI's Kinect height

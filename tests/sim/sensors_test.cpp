@@ -61,6 +61,26 @@ TEST(SpinningLidar, Vlp16PatternInTheOffice) {
   }
 }
 
+TEST(SpinningLidar, Os0RingsColumnsAndRangeLimits) {
+  // 64 rings evenly over ±45°, 1024 columns, 0.3–50 m: in the closed office every ray returns
+  // within range (or is dropped), and each point lies on its ring's cone.
+  const SpinningLidarParams params = SpinningLidarParams::os0_64();
+  ASSERT_EQ(params.elevations_deg.size(), 64U);
+  EXPECT_NEAR(params.elevations_deg.front(), -45.0, 1e-12);
+  EXPECT_NEAR(params.elevations_deg.back(), 45.0, 1e-12);
+  EXPECT_NEAR(params.elevations_deg[1] - params.elevations_deg[0], 90.0 / 63.0, 1e-12);
+  SpinningLidar lidar(params);
+  const SimulatedScan scan = lidar.scan(make_office_scene(), pose_at({5.0, 4.0, 1.2}, 0.3), 0.0);
+  EXPECT_EQ(scan.rays, 1024U * 64U);
+  EXPECT_EQ(scan.no_return, 0U);
+  EXPECT_EQ(scan.rays, scan.points_sensor.size() + scan.no_return + scan.out_of_range + scan.dropped);
+  expect_rings_match(scan, params.elevations_deg);
+  for (const auto& p : scan.points_sensor) {
+    ASSERT_GE(p.norm(), params.min_range);
+    ASSERT_LE(p.norm(), params.max_range);
+  }
+}
+
 TEST(SpinningLidar, Hdl64RingsAndRangeLimits) {
   const SpinningLidarParams params = SpinningLidarParams::hdl64e();
   ASSERT_EQ(params.elevations_deg.size(), 64U);

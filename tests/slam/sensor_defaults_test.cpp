@@ -51,12 +51,8 @@ TEST(SensorDefaults, Hdl64KeepsThePapersGap) {
 }
 
 TEST(SensorDefaults, Os0SixtyFourRings) {
-  // An OS0-64: 64 rings over ±45° (1.43° apart): 0.62 m at 25 m.
-  sim::SpinningLidarParams os0 = sim::SpinningLidarParams::vlp16();
-  os0.elevations_deg.clear();
-  for (int k = 0; k < 64; ++k) os0.elevations_deg.push_back(-45.0 + 90.0 * k / 63.0);
-  os0.azimuth_step_deg = 0.35;
-  const SensorProfile s = profile_scan(scan_of(os0));
+  // The simulator's OS0-64: 64 rings over ±45° (1.43° apart): 0.62 m at 25 m.
+  const SensorProfile s = profile_scan(scan_of(sim::SpinningLidarParams::os0_64()));
   EXPECT_NEAR(s.ring_spacing, 90.0 / 63.0 * kDeg, 0.05 * kDeg);
   Params p = outdoor_preset();
   (void)adapt_to_sensor(p, outdoor_preset(), s);

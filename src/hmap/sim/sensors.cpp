@@ -77,6 +77,16 @@ SpinningLidarParams SpinningLidarParams::vlp16() {
   return p;
 }
 
+SpinningLidarParams SpinningLidarParams::os0_64() {
+  SpinningLidarParams p;
+  for (int i = 0; i < 64; ++i) p.elevations_deg.push_back(-45.0 + 90.0 * i / 63.0);
+  p.azimuth_step_deg = 360.0 / 1024.0;
+  p.min_range = 0.3;
+  p.max_range = 50.0;
+  p.range_sigma = 0.015;
+  return p;
+}
+
 SpinningLidarParams SpinningLidarParams::hdl64e() {
   SpinningLidarParams p;
   for (int i = 0; i < 32; ++i) p.elevations_deg.push_back(2.0 - i / 3.0);     // +2° .. −8.33°

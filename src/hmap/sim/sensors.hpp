@@ -51,6 +51,9 @@ struct SpinningLidarParams {
   /// Velodyne HDL-64E: upper block +2° to −8.33° in 1/3° steps, lower block −8.83° to −24.33° in
   /// 1/2° steps, 0.17° azimuth, 0.9–120 m, σ 2 cm, 0.5 % dropouts.
   [[nodiscard]] static SpinningLidarParams hdl64e();
+  /// Ouster OS0-64 (the sensor of ../shared/data/balm_os0): 64 rings evenly over −45°..+45°
+  /// (1.43° apart), 1024 columns (0.35° azimuth, 10 Hz), 0.3–50 m, σ 1.5 cm, 0.5 % dropouts.
+  [[nodiscard]] static SpinningLidarParams os0_64();
 };
 
 class SpinningLidar {

@@ -12,12 +12,22 @@
 
 namespace hmap::sim {
 
-std::vector<std::string> sensor_names() { return {"vlp16", "hdl64", "kinect", "utm30lx-tilt", "utm30lx-yaw"}; }
+std::vector<std::string> sensor_names() { return {"vlp16", "hdl64", "os0-64", "kinect", "utm30lx-tilt", "utm30lx-yaw"}; }
+
+bool is_spinning_lidar(const std::string& name) { return name == "vlp16" || name == "hdl64" || name == "os0-64"; }
+
+std::string sensor_names_text() {
+  std::string text;
+  for (const std::string& n : sensor_names()) text += (text.empty() ? "" : ", ") + n;
+  return text;
+}
 
 AnySensor make_sensor(const std::string& name, std::uint64_t seed, SensorNoise noise) {
   const bool noise_free = noise == SensorNoise::kNone;
-  if (name == "vlp16" || name == "hdl64") {
-    auto p = name == "vlp16" ? SpinningLidarParams::vlp16() : SpinningLidarParams::hdl64e();
+  if (is_spinning_lidar(name)) {
+    auto p = name == "vlp16" ? SpinningLidarParams::vlp16()
+             : name == "hdl64" ? SpinningLidarParams::hdl64e()
+                               : SpinningLidarParams::os0_64();
     p.seed = seed;
     if (noise_free) p.range_sigma = 0.0, p.dropout_probability = 0.0;
     return SpinningLidar(p);
@@ -34,7 +44,7 @@ AnySensor make_sensor(const std::string& name, std::uint64_t seed, SensorNoise n
     if (noise_free) p.range_sigma = 0.0, p.dropout_probability = 0.0;
     return LineScanner(p);
   }
-  throw Error("unknown sensor '" + name + "' (known: vlp16, hdl64, kinect, utm30lx-tilt, utm30lx-yaw)");
+  throw Error("unknown sensor '" + name + "' (known: " + sensor_names_text() + ")");
 }
 
 namespace {
@@ -90,13 +100,13 @@ SimulatedRecording simulate(const SimulationSpec& spec, const SimulationProgress
 SimulatedRecording simulate(const SimulationSpec& spec, const Scene& scene, const SimulationProgress& progress) {
   if (spec.stride == 0) throw Error("--stride must be at least 1");
   if (!(spec.truth_spacing >= 0.005)) throw Error("--truth-spacing must be at least 0.005 m");
-  if (spec.sweep && spec.sensor != "vlp16" && spec.sensor != "hdl64") {
-    throw Error("--sweep needs a spinning lidar (--sensor vlp16 or hdl64), not '" + spec.sensor + "'");
+  if (spec.sweep && !is_spinning_lidar(spec.sensor)) {
+    throw Error("--sweep needs a spinning lidar (--sensor vlp16, hdl64 or os0-64), not '" + spec.sensor + "'");
   }
   AnySensor sensor = make_sensor(spec.sensor, spec.seed, SensorNoise::kModelled);
   AnySensor exact = make_sensor(spec.sensor, spec.seed, SensorNoise::kNone);
   // Spinning lidars on a car roof, the others on a robot at about 0.5 m (the Kinect at 0.8 m).
-  const bool outdoor = spec.sensor == "vlp16" || spec.sensor == "hdl64";
+  const bool outdoor = is_spinning_lidar(spec.sensor);
   const double height = outdoor ? 1.73 : spec.sensor == "kinect" ? 0.8 : 0.5;
   const Trajectory path = path_for(spec, height);
 

@@ -26,6 +26,10 @@ enum class SensorNoise : std::uint8_t {
 
 /// The sensors `hmap simulate --sensor` names.
 [[nodiscard]] std::vector<std::string> sensor_names();
+/// The names of sensor_names() that are spinning lidars (a sweep, a car's roof).
+[[nodiscard]] bool is_spinning_lidar(const std::string& name);
+/// sensor_names() as one comma-separated line, for help texts and errors.
+[[nodiscard]] std::string sensor_names_text();
 
 /// The sensor `name` (sensor_names(): the device presets of sensors.hpp) with noise seed `seed`.
 /// Throws hmap::Error listing the known names for any other.
@@ -35,7 +39,7 @@ struct SimulationSpec {
   /// The built-in scene whose path is driven (parking: the car route; boxes: along the enclosure);
   /// any other name, or "" for a scene of the caller's (simulate(spec, scene)), the office robot's route.
   std::string scene = "parking";
-  std::string sensor = "vlp16";    ///< vlp16, hdl64, kinect, utm30lx-tilt, utm30lx-yaw
+  std::string sensor = "vlp16";    ///< one of sensor_names()
   std::size_t frames = 0;          ///< 0: the whole path
   std::size_t stride = 1;          ///< take every stride-th frame of the 10 Hz path
   bool long_route = false;         ///< parking: drive on past the side road (about 313 m)
