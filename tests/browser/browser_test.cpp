@@ -224,12 +224,34 @@ TEST(Browser, FollowsALiveSlamRun) {
   const std::string cmd = tools.node + " --experimental-websocket --no-warnings " + HMAP_BROWSER_SCRIPT + " " + tools.chromium +
                           " --live " + dir.string() + " " + hmap_bin() + " slam --kitti " + (dir / "sim").string() + " --out " +
                           (dir / "slam").string() + " --view --view-port 0";
-  const std::string out = run_output(cmd);
+  // The maps drawn while the run went on: samples with the scan progress, nothing pending, a new version.
+  const auto maps_drawn = [](const nlohmann::json& samples) {
+    std::size_t n = 0;
+    std::string version;
+    for (const nlohmann::json& s : samples) {
+      int scan = 0, of = 0;
+      if (std::sscanf(s["progress"].get<std::string>().c_str(), "scan %d of %d", &scan, &of) != 2 || s["busy"].get<bool>()) continue;
+      if (s["version"].dump() != version) ++n;
+      version = s["version"].dump();
+    }
+    return n;
+  };
+  // A software-GL page on a machine busy with other work may draw the first map only as the run
+  // ends: then the same run is followed once more (a page that never updates fails both).
   nlohmann::json r;
-  try {
-    r = nlohmann::json::parse(out);
-  } catch (const std::exception&) {
-    FAIL() << "browser_check.mjs printed: " << out;
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    std::error_code ec;
+    fs::remove_all(dir / "slam", ec);
+    const std::string out = run_output(cmd);
+    try {
+      r = nlohmann::json::parse(out);
+    } catch (const std::exception&) {
+      FAIL() << "browser_check.mjs printed: " << out;
+    }
+    if (r.contains("skip") || r.contains("error") || !r.contains("samples")) break;
+    const std::size_t seen = maps_drawn(r["samples"]);
+    if (seen >= 2) break;
+    if (attempt == 0) std::printf("browser, live slam: the page drew %zu map(s) during the run; following it once more\n", seen);
   }
   if (r.contains("skip")) GTEST_SKIP() << r["skip"].get<std::string>();
   ASSERT_FALSE(r.contains("error")) << r.dump(1);
