@@ -170,8 +170,7 @@ struct TfTree {
 /// length, then name=value, and the fields fill the header exactly; header and body lie inside
 /// the file (or the uncompressed chunk). Throws InputError naming the byte of the first bad record
 /// (open_recording then reads the bag record by record instead, without rosbag).
-void check_bag_records(const fs::path& path, BagInfo& info) {
-  const std::string bytes = detail::read_file_bytes(path);
+void check_bag_records(const fs::path& path, std::string_view bytes, BagInfo& info) {
   const std::string source = path.string();
   if (!std::string_view(bytes).starts_with("#ROSBAG V2.0\n")) {
     throw InputError(source, detail::byte_position(0), "not a ROS 1 bag (expected \"#ROSBAG V2.0\")");
@@ -328,16 +327,17 @@ std::unique_ptr<access::Recording> open_recording(const fs::path& path, BagInfo&
   if (!fs::exists(path)) throw InputError(path.string(), "", "cannot open: no such file or folder");
   if (is_ros2(path)) return access::open_ros2(path);
   if (!fs::is_regular_file(path)) throw InputError(path.string(), "", "cannot open: not a regular file");
+  // Read once: for the record check, and for the linear reading if rosbag cannot use the index.
+  std::string bytes = detail::read_file_bytes(path);
   std::exception_ptr indexed_error;
   try {
-    check_bag_records(path, ros1_info);
+    check_bag_records(path, bytes, ros1_info);
     return access::open_ros1_bag(path.string());
   } catch (const std::bad_alloc&) {
     throw;
   } catch (const std::exception&) {
     indexed_error = std::current_exception();
   }
-  std::string bytes = detail::read_file_bytes(path);
   // Not a bag at all: the indexed reader's error says so.
   if (!std::string_view(bytes).starts_with("#ROSBAG V2.0\n")) std::rethrow_exception(indexed_error);
   ros1_info = BagInfo{};

@@ -218,21 +218,12 @@ Eigen::Vector3d ScanMatcher::solve(const Linearization& lin, bool& degenerate, E
   degenerate = !(lmax > 0.0) || eigenvalues(0) < params_.slam.degeneracy_ratio * lmax;
   Eigen::Vector3d step = Eigen::Vector3d::Zero();
   if (!(lmax > 0.0)) return step;
-  if (basis_.cols() < 3) {
-    // A restricted match (a thin fallback): eq. (7) on the span of the basis, whose columns are
-    // in metres (a yaw column scaled by the RMS radius), solved in its eigenbasis as below.
-    const Eigen::MatrixXd Hr = basis_.transpose() * lin.H * basis_;
-    const Eigen::VectorXd gr = basis_.transpose() * lin.g;
-    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> reduced(Hr);
-    const double rmax = reduced.eigenvalues().maxCoeff();
-    Eigen::VectorXd alpha = Eigen::VectorXd::Zero(Hr.rows());
-    for (Eigen::Index k = 0; k < Hr.rows(); ++k) {
-      const double l = reduced.eigenvalues()(k);
-      if (!(rmax > 0.0) || l < params_.slam.degeneracy_ratio * rmax || l <= 0.0) continue;
-      const Eigen::VectorXd u = reduced.eigenvectors().col(k);
-      alpha += (u.dot(gr) / l) * u;
-    }
-    step = basis_ * alpha;
+  if (yaw_only_) {
+    // A thin fallback's match (ThinFallback::kHeading): eq. (7) along the yaw alone, in the same
+    // scaled units as below (the yaw in metres at the RMS radius).
+    const double b = 1.0 / rms_radius_;
+    const double l = b * lin.H(2, 2) * b;
+    if (l > 0.0) step(2) = b * ((b * lin.g(2)) / l);
   } else {
     Eigen::Vector3d step_s = Eigen::Vector3d::Zero();
     for (int k = 0; k < 3; ++k) {
@@ -412,9 +403,8 @@ MatchResult ScanMatcher::match(const ScanHVoxels& scan_level, const HMap& map, c
                                CoarseSearch search, const std::optional<PlanarPose>& alternative,
                                ThinFallback thin_fallback, const std::optional<MotionPrior>& prior) {
   prior_.reset();
-  basis_ = Eigen::Matrix3d::Identity();
+  yaw_only_ = false;
   select(scan_level, static_cast<float>(params_.slam.min_match_height));
-  bool restricted = false;
   if (candidates_.size() < kMinHVoxels && thin_fallback != ThinFallback::kNone && params_.slam.min_match_height > 0.0) {
     select(scan_level, 0.0F);
     // Only where the map is known all around (at the guess): flat ground is the same everywhere, so
@@ -430,10 +420,7 @@ MatchResult ScanMatcher::match(const ScanHVoxels& scan_level, const HMap& map, c
     // leaves that pattern nearly where it is: the yaw is told by the kerbs. With odometry's guess
     // (kHeading) only the yaw moves. Without odometry the position must come from somewhere, and
     // constant velocity along the road was worse than this pull (docs/SLAM.md).
-    if (thin_fallback == ThinFallback::kHeading) {
-      basis_ = Eigen::Vector3d(0.0, 0.0, 1.0 / rms_radius_);
-      restricted = true;
-    }
+    yaw_only_ = thin_fallback == ThinFallback::kHeading;
   }
   if (candidates_.size() < kMinHVoxels) {
     // Too few to hold three degrees of freedom: a kerb or a pedestrian alone snaps the pose by
@@ -463,8 +450,8 @@ MatchResult ScanMatcher::match(const ScanHVoxels& scan_level, const HMap& map, c
   const double ratio = params_.slam.coarse_trigger_ratio;
   const bool failed = search == CoarseSearch::kAlways || !result.converged ||
                       (reference_score_ > 0.0 && result.score < ratio * reference_score_);
-  // A restricted match is not searched: the grid would move the pose where the thin HVoxels may not.
-  if (failed && ratio > 0.0 && !restricted) {
+  // A yaw-only match is not searched: the grid would move the pose where the thin HVoxels may not.
+  if (failed && ratio > 0.0 && !yaw_only_) {
     const int iterations = result.iterations;
     const double initial_cost = result.initial_cost;
     std::vector<PlanarPose> starts = coarse_search(guess);
@@ -481,10 +468,10 @@ MatchResult ScanMatcher::match(const ScanHVoxels& scan_level, const HMap& map, c
   }
   assess_degeneracy(result);
   Eigen::Matrix3d scan_information = result.hessian;
-  if (restricted) {
+  if (yaw_only_) {
     // What the scan told is its information along the basis only; the rest is the guess's.
-    const Eigen::Matrix3d P = basis_ * (basis_.transpose() * basis_).inverse() * basis_.transpose();
-    scan_information = P * result.hessian * P;
+    scan_information = Eigen::Matrix3d::Zero();
+    scan_information(2, 2) = result.hessian(2, 2);
     result.heading_only = true;
     result.degenerate = true;
     result.observable[0] = false;

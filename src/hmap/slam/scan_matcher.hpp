@@ -167,9 +167,7 @@ class ScanMatcher {
   double reference_cost_ = 0.0;   // running mean of the final costs per HVoxel of the last matches
   std::optional<MotionPrior> prior_;  // of the match under way
   double prior_weight_ = 0.0;         // s² of MotionPrior for it
-  /// The directions ξ may move in, columns in (m, m, rad); all three unless a thin fallback
-  /// restricts them (ThinFallback::kHeading: the yaw alone, scaled by the RMS radius).
-  Eigen::Matrix<double, 3, Eigen::Dynamic> basis_ = Eigen::Matrix3d::Identity();
+  bool yaw_only_ = false;  // the match under way moves the yaw alone (ThinFallback::kHeading)
 };
 
 }  // namespace hmap::slam
