@@ -23,6 +23,7 @@ struct MapOptions : InputOptions {
   ParamOptions params;
   std::string out;
   std::string mcap;
+  std::string continue_from;  ///< a saved map the scans are added to
   bool hvoxels_only = false;
 #ifdef HMAP_HAVE_VIEW
   LiveViewOptions view;
@@ -34,6 +35,25 @@ void run_map(const MapOptions& o) {
   check_output_extension(o.out, {".hmap"}, "hmap map writes a .hmap map");
   check_output_file(o.out);  // before the work: a missing folder was found after mapping every scan
   if (!o.mcap.empty()) check_mcap_output(o.mcap);
+  // --continue: the saved map and its layers are the start, with the parameters it was built
+  // with (a map built on with other ones, a finer cell say, would not be one map).
+  std::optional<MapFile> old;
+  if (!o.continue_from.empty()) {
+    const ParamOptions& po = o.params;
+    if (!po.preset.empty() || !po.config.empty() || !po.overrides.empty() || po.cell || po.min_range || po.max_range) {
+      throw Error("hmap map --continue: the map is continued with the parameters it was built with; "
+                  "--preset, --config, --set, --cell, --min-range and --max-range cannot change them");
+    }
+    old = load_map_file(o.continue_from);
+    if (!old->grid && !o.hvoxels_only) {
+      throw InputError(o.continue_from, "", "holds the HMAP alone (saved with --hvoxels-only): continue it with --hvoxels-only");
+    }
+    if (old->grid && o.hvoxels_only) {
+      throw InputError(o.continue_from, "", "holds the 2D grid and ground patches, which --hvoxels-only would drop: continue it without --hvoxels-only");
+    }
+    params = old->map.params();
+  }
+  const MapStats old_stats = old ? old->map.stats() : MapStats{};
   const ScanSource src = o.open_inputs(/*poses_required=*/true);
   if (!o.mcap.empty()) check_mcap_stamps(src.stamps, "the scans' stamps");
   // Defaults the first scan can tell, as hmap slam takes them: the preset from the sensor's reach
@@ -43,14 +63,18 @@ void run_map(const MapOptions& o) {
   PointCloud first;
   if (!src.scans.empty()) {
     first = src.read(0, first_stats);
+  }
+  if (!src.scans.empty() && !old) {
     const ScanParams chosen = resolve_params_for_scan(o.params.sources(), first);
     params = chosen.params;
     chosen_text = chosen_summary(chosen);
   }
   // The hybrid map of section IV by default: the HMAP, the ground patches of Alg. 4 and the 2D
   // grid of eq. (3)-(4), all saved; --hvoxels-only keeps section III alone (faster).
-  HybridMapper hybrid(params);
-  Mapper mapper(params);
+  HybridMapper hybrid = old && !o.hvoxels_only
+                            ? HybridMapper(std::move(old->map), std::move(*old->grid), std::move(old->ground))
+                            : HybridMapper(params);
+  Mapper mapper = old && o.hvoxels_only ? Mapper(std::move(old->map)) : Mapper(params);
 #ifdef HMAP_HAVE_VIEW
   LiveView live(o.view);
   // The map as it is now, to the page: after every scan, at most once a second.
@@ -141,6 +165,10 @@ void run_map(const MapOptions& o) {
       total.extrusion.removed, o.out.c_str(),
       human_bytes(static_cast<double>(std::filesystem::file_size(o.out))).c_str());
   if (!chosen_text.empty()) std::printf("Chosen from the first scan:%s\n", chosen_text.c_str());
+  if (old) {
+    std::printf("Continued %s (%zu cells, %zu HVoxels before; its parameters, cell %.3f m).\n", o.continue_from.c_str(),
+                old_stats.cells, old_stats.hvoxels, params.map.cell_size);
+  }
   if (!o.hvoxels_only) {
     std::size_t occupied = 0, free_cells = 0;
     hybrid.grid().for_each_cell([&](const CellKey&, float l) { (l > 0.0F ? occupied : free_cells) += 1; });
@@ -177,6 +205,9 @@ void add_map_command(CLI::App& app) {
                   "Also write the map as an MCAP recording for Foxglove (OUT.mcap), as hmap export --mcap writes it, "
                   "with the scans' poses as /trajectory and one /tf per scan at its stamp (times.txt of a KITTI folder, "
                   "a TUM --poses file's times or times.txt beside a KITTI one, a bag's; else 0)");
+  cmd->add_option("--continue", opts->continue_from,
+                  "Add the scans to this saved map (.hmap) and its 2D grid and ground patches, with the parameters it was "
+                  "built with; the result goes to --out (which may be the same file). The scans' poses are in its frame");
   opts->params.add_to(*cmd);
 #ifdef HMAP_HAVE_VIEW
   opts->view.add_to(*cmd);

@@ -18,6 +18,7 @@
 
 #include "apps/cli_run.hpp"
 #include "common/test_data.hpp"
+#include "hmap/core/format.hpp"
 #include "hmap/io/hmap_file.hpp"
 #include "hmap/io/pcd.hpp"
 
@@ -599,6 +600,67 @@ TEST_F(CliTest, PvoxBoxesReportsMissingEdgesAsMissing) {
       EXPECT_NE(planes.find("\"" + name + "\""), std::string::npos) << name;
     }
   }
+}
+
+}  // namespace
+}  // namespace hmap
+
+namespace hmap {
+namespace {
+
+std::string file_bytes(const std::filesystem::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), {}};
+}
+
+// hmap map --continue (issue 22): a map built on from its saved layers is the map built in one
+// run, byte for byte, the ground patches and the 2D grid included; parameters that would make it
+// another map are refused.
+TEST_F(CliTest, MapContinuedFromItsFileEqualsOneRun) {
+  ASSERT_EQ(run("simulate --scene parking --sensor vlp16 --frames 8 --seed 4 --out " + path("seq")).code, 0);
+  std::ifstream poses(dir_ / "seq" / "poses.txt");
+  std::vector<std::string> lines_of_poses;
+  for (std::string line; std::getline(poses, line);) lines_of_poses.push_back(line);
+  ASSERT_EQ(lines_of_poses.size(), 8U);
+  std::string first, second;
+  {
+    std::ofstream p1(path("p1.txt")), p2(path("p2.txt"));
+    for (int k = 0; k < 8; ++k) {
+      const std::string scan = " " + (dir_ / "seq" / "velodyne" / format("%06d.bin", k)).string();
+      (k < 5 ? p1 : p2) << lines_of_poses[static_cast<std::size_t>(k)] << "\n";
+      (k < 5 ? first : second) += scan;
+    }
+  }
+  const CmdResult whole = run("map --kitti " + path("seq") + " --out " + path("whole.hmap"));
+  ASSERT_EQ(whole.code, 0) << whole.out;
+  ASSERT_EQ(run("map" + first + " --poses " + path("p1.txt") + " --out " + path("part.hmap")).code, 0);
+  const CmdResult cont = run("map" + second + " --poses " + path("p2.txt") + " --continue " + path("part.hmap") +
+                             " --out " + path("cont.hmap"));
+  ASSERT_EQ(cont.code, 0) << cont.out;
+  EXPECT_NE(cont.out.find("Continued"), std::string::npos) << cont.out;
+  const MapFile m = load_map_file(dir_ / "cont.hmap");
+  ASSERT_TRUE(m.grid.has_value());
+  EXPECT_GT(m.grid->known_cells(), 100U);
+  EXPECT_GT(m.ground.size(), 10U);
+  EXPECT_GT(m.map.stats().hvoxels, load_hmap(dir_ / "part.hmap").stats().hvoxels);
+  EXPECT_TRUE(file_bytes(dir_ / "cont.hmap") == file_bytes(dir_ / "whole.hmap"));
+
+  // Bad combinations: one line, exit 2, nothing written.
+  const std::string tail = second + " --poses " + path("p2.txt") + " --continue " + path("part.hmap") + " --out " + path("bad.hmap");
+  for (const std::string& extra : {std::string(" --cell 0.1"), std::string(" --set map.max_range=30"), std::string(" --hvoxels-only")}) {
+    const CmdResult r = run("map" + tail + extra);
+    EXPECT_EQ(r.code, 2) << extra;
+    EXPECT_EQ(lines(r.out), 1U) << r.out;
+    EXPECT_FALSE(std::filesystem::exists(dir_ / "bad.hmap")) << extra;
+  }
+  ASSERT_EQ(run("map" + first + " --poses " + path("p1.txt") + " --hvoxels-only --out " + path("bare.hmap")).code, 0);
+  const CmdResult bare = run("map" + second + " --poses " + path("p2.txt") + " --continue " + path("bare.hmap") + " --out " + path("bad.hmap"));
+  EXPECT_EQ(bare.code, 2);
+  EXPECT_NE(bare.out.find("bare.hmap"), std::string::npos) << bare.out;
+  EXPECT_NE(bare.out.find("--hvoxels-only"), std::string::npos) << bare.out;
+  const CmdResult missing = run("map" + second + " --poses " + path("p2.txt") + " --continue " + path("nope.hmap") + " --out " + path("bad.hmap"));
+  EXPECT_EQ(missing.code, 2);
+  EXPECT_NE(missing.out.find("nope.hmap"), std::string::npos) << missing.out;
 }
 
 }  // namespace

@@ -611,6 +611,13 @@ GroundTracker::GroundTracker(const GroundParams& params, double window, std::vec
 GroundResult GroundTracker::update(const HMap& map, const Eigen::Vector3d& hint, double reach) {
   validate(hint, params_, window_);
   if (!(std::isfinite(reach) && reach > 0.0)) throw Error("GroundTracker: the reach must be finite and > 0");
+  // The random stream restarts from the seed and the tree's size: what an update grows is a
+  // function of the map, the tree and the scan alone, so a map continued from its saved layers
+  // (hmap map --continue) grows the same patches as one built in a single run.
+  std::uint64_t z = params_.seed + 0x9E3779B97F4A7C15ULL * (static_cast<std::uint64_t>(tree_.patches().size()) + 1);
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;  // splitmix64's finaliser: nearby sizes, unrelated streams
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+  rng_.seed(z ^ (z >> 31));
   return PatchExplorer(map, params_, window_, tree_, rng_).grow(hint, reach);
 }
 
