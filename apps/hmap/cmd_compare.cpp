@@ -23,7 +23,7 @@
 #include "hmap/io/hmap_file.hpp"
 #include "hmap/io/png.hpp"
 #include "hmap/occupancy/hybrid_mapper.hpp"
-#include "render.hpp"
+#include "hmap/render/render.hpp"
 
 namespace hmap::cli {
 
@@ -195,22 +195,22 @@ void compare_into(const CompareOptions& o, const Params& params, const ScanSourc
   if (st.hvoxels == 0) throw Error("the HMAP of these scans is empty: nothing to compare");
   const HMap hmap_cut = cut_above(hybrid.map(), z_cut);
   if (hmap_cut.stats().hvoxels == 0) throw Error("nothing of the map lies below the display cut at z = " + std::to_string(z_cut) + " m");
-  const HeightRange range = resolve_range(hmap_cut, {});
-  const TopViewport vp = viewport_over(st.bounds.min().x(), st.bounds.min().y(), st.bounds.max().x(),
+  const render::HeightRange range = render::resolve_range(hmap_cut, {});
+  const render::TopViewport vp = render::viewport_over(st.bounds.min().x(), st.bounds.min().y(), st.bounds.max().x(),
                                        st.bounds.max().y(), params.map.cell_size, o.max_pixels);
   const HMap display_25d = elevation_display(elevation.map());
   const GridReading reading = GridReading::for_map(params.occupancy);
-  const RgbImage top = side_by_side({{"I point cloud", render_points_top(cloud_map, range, vp)},
-                                     {"II HMAP", render_top_in(hmap_cut, range, vp)},
-                                     {"III HMAP 2D grid, kept scan by scan", render_occupancy(hybrid.grid(), vp, reading)},
-                                     {"IIIb HMAP 2D grid judged from the final map", render_occupancy(grid_final, vp, reading)},
-                                     {"IV 2.5D", render_top_in(display_25d, range, vp)},
-                                     {"V 2D grid of the 2.5D map", render_occupancy(grid_25d, vp, reading)}});
+  const RgbImage top = render::side_by_side({{"I point cloud", render::render_points_top(cloud_map, range, vp)},
+                                     {"II HMAP", render::render_top_in(hmap_cut, range, vp)},
+                                     {"III HMAP 2D grid, kept scan by scan", render::render_occupancy(hybrid.grid(), vp, reading)},
+                                     {"IIIb HMAP 2D grid judged from the final map", render::render_occupancy(grid_final, vp, reading)},
+                                     {"IV 2.5D", render::render_top_in(display_25d, range, vp)},
+                                     {"V 2D grid of the 2.5D map", render::render_occupancy(grid_25d, vp, reading)}});
   const auto out = [&](const char* name) { return (dir / name).string(); };
   write_png(out("compare_top.png"), top);
   const int oblique_px = std::max(300, o.max_pixels * 2 / 3);
-  write_png(out("compare_oblique.png"), side_by_side({{"II HMAP", render_oblique(hmap_cut, range, oblique_px)},
-                                                      {"IV 2.5D", render_oblique(display_25d, range, oblique_px)}}));
+  write_png(out("compare_oblique.png"), render::side_by_side({{"II HMAP", render::render_oblique(hmap_cut, range, oblique_px)},
+                                                      {"IV 2.5D", render::render_oblique(display_25d, range, oblique_px)}}));
 
   // Accuracy against the truth, when given.
   nlohmann::json report;

@@ -13,7 +13,7 @@
 #include "hmap/io/poses.hpp"
 #include "hmap/io/sequence_writer.hpp"
 #include "hmap/maps/mapper.hpp"
-#include "render.hpp"
+#include "hmap/render/render.hpp"
 #include "hmap/sim/simulation.hpp"
 
 namespace hmap::cli {
@@ -86,12 +86,12 @@ std::string run_demo_into(const DemoOptions& o, const std::filesystem::path& dir
   const MapMetrics m = evaluate_map(map, rec.truth_seen);
 
   // 4. Pictures.
-  const HeightRange range = resolve_range(map, {});
-  TopViewport vp;
-  RgbImage top = render_top(map, range, 2000, vp, 2.0);
-  draw_paths_and_legend(top, vp, height_legend(range), {{&rec.T_world_sensor, 255, 255, 255, "sensor path (true)"}});
+  const render::HeightRange range = render::resolve_range(map, {});
+  render::TopViewport vp;
+  RgbImage top = render::render_top(map, range, 2000, vp, 2.0);
+  render::draw_paths_and_legend(top, vp, render::height_legend(range), {{&rec.T_world_sensor, 255, 255, 255, "sensor path (true)"}});
   write_png(dir / "map_top.png", top);
-  write_png(dir / "map_oblique.png", render_oblique(map, range, 2000));
+  write_png(dir / "map_oblique.png", render::render_oblique(map, range, 2000));
 
   // 5. Report.
   const MapStats st = map.stats();

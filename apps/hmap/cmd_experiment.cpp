@@ -180,14 +180,14 @@ void pvox_boxes_into(const ExperimentOptions& o, const std::filesystem::path& di
   const PvoxFileSizes sizes = write_pvox_files(dir, "rbf_", rbf.mapper->map(), &rbf.raw_points_map);
   write_pvox_files(dir, "brf_", brf.mapper->map(), nullptr);
   // Pictures: the ceiling and the walls cut away, as the seed's Figures 12–13 show the inside.
-  PvoxView view;
+  render::PvoxView view;
   view.clip = Eigen::AlignedBox3d(Eigen::Vector3d(-0.72, 0.03, -1.2), Eigen::Vector3d(0.72, 2.64, 0.2));
   const auto slice_z = [](const pvox::VoxelMap& m) { return m.centre(m.key_of(Eigen::Vector3d(0.0, 0.0, -0.91))).z(); };
-  PvoxView field = view;
+  render::PvoxView field = view;
   field.clip = Eigen::AlignedBox3d(Eigen::Vector3d(-0.8, -0.05, -1.2), Eigen::Vector3d(0.8, 2.75, 1.2));
   write_pvox_pictures(dir, "rbf_", rbf.mapper->map(), view, std::numeric_limits<double>::quiet_NaN());
   write_pvox_pictures(dir, "brf_", brf.mapper->map(), view, std::numeric_limits<double>::quiet_NaN());
-  write_png(dir / "rbf_gradient.png", render_pvox_gradient(rbf.mapper->map(), field, slice_z(rbf.mapper->map())));
+  write_png(dir / "rbf_gradient.png", render::render_pvox_gradient(rbf.mapper->map(), field, slice_z(rbf.mapper->map())));
 
   nlohmann::json report;
   report["rbf"] = run_json(rbf, rec);

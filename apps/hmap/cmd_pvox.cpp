@@ -107,7 +107,7 @@ void write_pvox_run(const PvoxOptions& o, const ScanSource& src, pvox::PvoxMappe
   progress.finish();
   const auto& map = mapper.map();
   const PvoxFileSizes sizes = write_pvox_files(dir, "", map, o.raw_csv ? &raw_points : nullptr);
-  const PvoxView view = bulk_view(map);
+  const render::PvoxView view = render::bulk_view(map);
   // The gradient slice: 1 m above the lowest tenth of the occupied voxels (about the ground).
   const auto occupied = map.occupied();
   double slice = std::numeric_limits<double>::quiet_NaN();

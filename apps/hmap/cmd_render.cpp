@@ -11,7 +11,7 @@
 #include "hmap/io/hmap_file.hpp"
 #include "hmap/io/poses.hpp"
 #include "hmap/occupancy/occupancy_grid.hpp"
-#include "render.hpp"
+#include "hmap/render/render.hpp"
 #ifdef HMAP_HAVE_PVOX
 #include "pvox_output.hpp"
 #endif
@@ -26,7 +26,7 @@ struct RenderOptions {
   std::string view = "top";
   std::string layer = "height";
   std::vector<std::string> trajectories;
-  HeightRange range;
+  render::HeightRange range;
   int max_pixels = 2000;
 };
 
@@ -40,9 +40,9 @@ void render_pvox(const RenderOptions& o) {
   }
   const pvox::VoxelMap map = load_pvox_file(o.map);
   if (map.occupied().empty()) throw Error(o.map + ": the map has no occupied voxel, nothing to render");
-  PvoxView view = bulk_view(map);
+  render::PvoxView view = render::bulk_view(map);
   view.max_pixels = o.max_pixels;
-  const RgbImage img = o.view == "oblique" ? render_pvox_iso(map, view) : render_pvox_top(map, view);
+  const RgbImage img = o.view == "oblique" ? render::render_pvox_iso(map, view) : render::render_pvox_top(map, view);
   write_png(o.out, img);
   std::printf("wrote %s: %dx%d pixels, %s view of the PVOX map (%zu occupied voxels of %.1f mm)\n", o.out.c_str(),
               img.width, img.height, o.view == "oblique" ? "isometric" : "top", map.occupied().size(), map.edge() * 1000.0);
@@ -64,7 +64,7 @@ void run_render(const RenderOptions& o) {
   const MapFile file = load_map_file(o.map);
   const HMap& map = file.map;
   if (map.stats().hvoxels == 0) throw Error(o.map + ": the map is empty, nothing to render");
-  const HeightRange range = resolve_range(map, o.range);
+  const render::HeightRange range = render::resolve_range(map, o.range);
   if (o.layer != "height" && o.view == "oblique") throw Error("--layer " + o.layer + " is drawn on the top view only");
   if (o.layer == "occupancy" && (!file.grid || file.grid->known_cells() == 0)) {
     throw Error(o.map + ": the map holds no 2D occupancy (built with --hvoxels-only, or no ground patch was found "
@@ -75,31 +75,24 @@ void run_render(const RenderOptions& o) {
   }
   if (o.view == "oblique") {
     if (!o.trajectories.empty()) throw Error("--trajectory is drawn on the top view only");
-    write_png(o.out, render_oblique(map, range, o.max_pixels));
+    write_png(o.out, render::render_oblique(map, range, o.max_pixels));
     std::printf("wrote %s: oblique view from the south-west, colour from %.2f m (blue) to %.2f m (red)\n",
                 o.out.c_str(), range.z_low, range.z_high);
     return;
   }
   std::vector<PoseList> paths;
   for (const auto& t : o.trajectories) paths.push_back(read_poses(t));
-  TopViewport vp;
-  RgbImage img = render_top(map, range, o.max_pixels, vp, paths.empty() ? 0.0 : 2.0);
-  if (o.layer == "occupancy") {
-    // map_server's picture of the grid: free white, occupied black, unknown grey.
-    img = render_occupancy(*file.grid, vp, GridReading::for_map(map.params().occupancy));
-  } else if (o.layer == "ground") {
-    draw_ground_patches(img, vp, file.ground, 255, 255, 255);
-  }
-  const bool on_grid = o.layer == "occupancy";
-  const std::vector<LegendEntry> legend =
-      on_grid ? std::vector<LegendEntry>{{255, 255, 255, "free"}, {0, 0, 0, "occupied"}, {205, 205, 205, "unknown"}}
-              : height_legend(range);
-  std::vector<PathLayer> layers;
+  std::vector<render::LabelledPath> labelled;
   for (std::size_t k = 0; k < paths.size(); ++k) {
-    const auto c = path_colour(k, on_grid);
-    layers.push_back({&paths[k], c[0], c[1], c[2], "path " + std::filesystem::path(o.trajectories[k]).filename().string()});
+    labelled.push_back({&paths[k], "path " + std::filesystem::path(o.trajectories[k]).filename().string()});
   }
-  draw_paths_and_legend(img, vp, legend, layers);
+  const render::TopLayer layer = o.layer == "occupancy" ? render::TopLayer::kOccupancy
+                                 : o.layer == "ground"  ? render::TopLayer::kGround
+                                                        : render::TopLayer::kHeight;
+  const render::TopPicture picture = render::render_top_view(
+      map, layer, range, o.max_pixels, file.grid ? &*file.grid : nullptr, file.ground, labelled, true);
+  const RgbImage& img = picture.image;
+  const render::TopViewport& vp = picture.viewport;
   write_png(o.out, img);
   if (o.layer == "occupancy") {
     std::printf("wrote %s: %dx%d pixels, %.3f m per pixel; 2D occupancy (free white, occupied black, unknown grey) "

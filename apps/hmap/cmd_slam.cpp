@@ -18,7 +18,7 @@
 #include "hmap/io/png.hpp"
 #include "hmap/io/poses.hpp"
 #include "hmap/slam/hmap_slam.hpp"
-#include "render.hpp"
+#include "hmap/render/render.hpp"
 #ifdef HMAP_HAVE_VIEW
 #include "live_view.hpp"
 #endif
@@ -268,13 +268,13 @@ void run_slam(const SlamOptions& o) {
     write_poses_tum(dir / "poses_tum.txt", times, estimate);
     write_file_atomic(dir / "matches.csv", log);
     save_hmap(dir / "map.hmap", slam.map());
-    const HeightRange range = resolve_range(slam.map(), {});
-    TopViewport vp;
-    RgbImage picture = render_top(slam.map(), range, 2000, vp, 2.0);
-    std::vector<PathLayer> layers;
+    const render::HeightRange range = render::resolve_range(slam.map(), {});
+    render::TopViewport vp;
+    RgbImage picture = render::render_top(slam.map(), range, 2000, vp, 2.0);
+    std::vector<render::PathLayer> layers;
     if (truth) layers.push_back({&*truth, 255, 255, 255, "truth (--gt)"});
     layers.push_back({&estimate, 255, 0, 255, "estimate"});
-    draw_paths_and_legend(picture, vp, height_legend(range), layers);
+    render::draw_paths_and_legend(picture, vp, render::height_legend(range), layers);
     write_png(dir / "trajectory.png", picture);
   });
 

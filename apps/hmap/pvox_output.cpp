@@ -46,33 +46,14 @@ pvox::VoxelMap load_pvox_file(const std::filesystem::path& path) {
                              memory_budget());
 }
 
-PvoxView bulk_view(const pvox::VoxelMap& map) {
-  PvoxView view;
-  const auto occupied = map.occupied();
-  if (occupied.size() > 100) {
-    Eigen::Vector3d lo;
-    Eigen::Vector3d hi;
-    for (int a = 0; a < 3; ++a) {
-      std::vector<double> c;
-      c.reserve(occupied.size());
-      for (const auto& v : occupied) c.push_back(v.centre[a]);
-      std::sort(c.begin(), c.end());
-      lo[a] = c[c.size() / 50] - map.edge();
-      hi[a] = c[c.size() - 1 - c.size() / 50] + map.edge();
-    }
-    view.clip = Eigen::AlignedBox3d(lo, hi);
-  }
-  return view;
-}
-
 void write_pvox_pictures(const std::filesystem::path& dir, const std::string& prefix, const pvox::VoxelMap& map,
-                         const PvoxView& view, double gradient_z) {
-  write_png(dir / (prefix + "top.png"), render_pvox_top(map, view));
-  write_png(dir / (prefix + "iso.png"), render_pvox_iso(map, view));
+                         const render::PvoxView& view, double gradient_z) {
+  write_png(dir / (prefix + "top.png"), render::render_pvox_top(map, view));
+  write_png(dir / (prefix + "iso.png"), render::render_pvox_iso(map, view));
   if (std::isfinite(gradient_z)) {
-    PvoxView flat = view;
+    render::PvoxView flat = view;
     flat.max_pixels = std::min(view.max_pixels, 900);
-    write_png(dir / (prefix + "gradient.png"), render_pvox_gradient(map, flat, gradient_z));
+    write_png(dir / (prefix + "gradient.png"), render::render_pvox_gradient(map, flat, gradient_z));
   }
 }
 

@@ -7,7 +7,8 @@
 #include <string>
 
 #include "hmap/core/types.hpp"
-#include "pvox_render.hpp"
+#include "hmap/pvox/voxel_map.hpp"
+#include "hmap/render/pvox_render.hpp"
 
 namespace hmap::cli {
 
@@ -29,12 +30,8 @@ PvoxFileSizes write_pvox_files(const std::filesystem::path& dir, const std::stri
 /// the run's memory budget; hmap::InputError naming the file otherwise.
 [[nodiscard]] pvox::VoxelMap load_pvox_file(const std::filesystem::path& path);
 
-/// The view of the map's bulk: clipped to the 2nd–98th percentile box of the occupied voxels when
-/// there are more than 100 (a few far returns would otherwise shrink everything to dots).
-[[nodiscard]] PvoxView bulk_view(const pvox::VoxelMap& map);
-
 /// Writes DIR/PREFIXtop.png, DIR/PREFIXiso.png and, when `gradient_z` is finite, DIR/PREFIXgradient.png.
 void write_pvox_pictures(const std::filesystem::path& dir, const std::string& prefix, const pvox::VoxelMap& map,
-                         const PvoxView& view, double gradient_z);
+                         const render::PvoxView& view, double gradient_z);
 
 }  // namespace hmap::cli

@@ -13,7 +13,7 @@ A thin shell over the C++ libraries (module ``_hmap``)::
 
 Also ``hmap.slam.Slam`` (poses from the scans, scan by scan), ``hmap.eval.trajectory`` (ATE, RPE),
 ``hmap.io.kitti_sequence`` (a KITTI folder as (points, pose, stamp)), ``hmap.sim`` (scenes, sensors,
-paths: simulated scans), ``hmap.pvox`` (the PVOX voxel grid) and ``hmap.params_for_scan``
+paths: simulated scans), ``hmap.pvox`` (the PVOX voxel grid), ``hmap.render`` (pictures as NumPy images) and ``hmap.params_for_scan``
 (the parameters ``hmap map`` and ``hmap slam`` choose from the first scan).
 
 Errors of the library (bad parameters, malformed files) raise ``hmap.Error`` (``hmap.InputError``
@@ -22,11 +22,11 @@ for a file), both ``ValueError`` subclasses carrying the library's one-line mess
 
 from . import _hmap
 from ._hmap import Error, Grid2D, HybridMapper, InputError, Map, Mapper, Params, params_for_scan
-from . import eval, io, pvox, sim, slam
+from . import eval, io, pvox, render, sim, slam
 
 # Not "eval": `from hmap import *` would hide the builtin eval(); use hmap.eval.
 __all__ = ["Error", "InputError", "Params", "params_for_scan", "Mapper", "HybridMapper", "Map", "Grid2D", "io",
-           "pvox", "sim", "slam"]
+           "pvox", "render", "sim", "slam"]
 
 _SECTIONS = sorted({name.split(".", 1)[0] for name in Params.names()})
 

@@ -16,6 +16,7 @@
 #include "hmap/core/format.hpp"
 #include "hmap/core/pose.hpp"
 #include "hmap/core/types.hpp"
+#include "hmap/io/png.hpp"
 
 namespace hmap::python {
 
@@ -126,6 +127,28 @@ inline PoseList poses_of(const py::handle& obj, const char* what) {
   return poses;
 }
 
+/// An (H, W, 3) uint8 array as an RgbImage (copied); `what` names it in messages.
+inline RgbImage image_of(const py::handle& image, const char* what) {
+  if (!py::isinstance<py::array>(image)) throw py::value_error(format("%s must be a numpy array of shape (H, W, 3), dtype uint8", what));
+  const auto arr = py::reinterpret_borrow<py::array>(image);
+  if (arr.ndim() != 3 || arr.shape(2) != 3 || arr.shape(0) < 1 || arr.shape(1) < 1) {
+    std::string shape = "(";
+    for (py::ssize_t d = 0; d < arr.ndim(); ++d) shape += (d ? ", " : "") + std::to_string(arr.shape(d));
+    throw py::value_error(format("%s must have shape (H, W, 3) with H, W >= 1, got ", what) + shape +
+                          (arr.ndim() == 1 ? ",)" : ")"));
+  }
+  if (!arr.dtype().is(py::dtype::of<std::uint8_t>())) {
+    throw py::value_error(format("%s must hold uint8, got dtype ", what) + std::string(py::str(arr.dtype())));
+  }
+  if (arr.shape(0) > 1 << 16 || arr.shape(1) > 1 << 16) throw py::value_error(format("%s is larger than 65536 pixels on a side", what));
+  const auto c = py::array_t<std::uint8_t, py::array::c_style | py::array::forcecast>::ensure(arr);
+  RgbImage img;
+  img.width = static_cast<int>(arr.shape(1));
+  img.height = static_cast<int>(arr.shape(0));
+  img.rgb.assign(c.data(), c.data() + c.size());
+  return img;
+}
+
 /// Per-point times [s] for `n` points: None gives none; else a 1-D array of n finite numbers.
 inline std::vector<float> times_of(const py::handle& obj, std::size_t n) {
   std::vector<float> times;
@@ -173,6 +196,14 @@ inline py::array_t<double> poses_array(const PoseList& poses) {
       for (int c = 0; c < 4; ++c) w(static_cast<py::ssize_t>(k), r, c) = m(r, c);
   }
   return out;
+}
+
+/// A picture as an (H, W, 3) uint8 array, row 0 the top; its bytes move into the array's owner.
+inline py::array_t<std::uint8_t> image_array(RgbImage&& image) {
+  auto* owned = new std::vector<std::uint8_t>(std::move(image.rgb));
+  py::capsule owner(owned, [](void* p) { delete static_cast<std::vector<std::uint8_t>*>(p); });
+  const auto h = static_cast<py::ssize_t>(image.height), w = static_cast<py::ssize_t>(image.width);
+  return py::array_t<std::uint8_t>({h, w, py::ssize_t{3}}, {w * 3, py::ssize_t{3}, py::ssize_t{1}}, owned->data(), owner);
 }
 
 inline py::array_t<double> matrix_array(const Pose& T) {

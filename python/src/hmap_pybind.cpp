@@ -36,6 +36,7 @@
 #include "hmap/io/poses.hpp"
 #include "hmap/maps/mapper.hpp"
 #include "hmap/occupancy/hybrid_mapper.hpp"
+#include "hmap/render/render.hpp"
 #include "hmap/slam/hmap_slam.hpp"
 #include "arrays.hpp"
 
@@ -568,23 +569,96 @@ py::dict write_bt(const Map& m, const std::filesystem::path& path) {
   });
 }
 
+// ---------------------------------------------------------------------------------------------
+// Pictures (hmap.render): the library's RgbImage as (H, W, 3) uint8 arrays
+
+render::HeightRange height_range(std::optional<double> z_low, std::optional<double> z_high) {
+  for (const std::optional<double>& z : {z_low, z_high}) {
+    if (z && !std::isfinite(*z)) throw py::value_error(format("z_low / z_high must be finite, got %g", *z));
+  }
+  return {z_low.value_or(NAN), z_high.value_or(NAN)};
+}
+
+/// `paths`: None, one (N, 4, 4) array, or a sequence of them (each an array or a list of 4x4).
+std::vector<PoseList> paths_of(const py::handle& paths) {
+  std::vector<PoseList> out;
+  if (paths.is_none()) return out;
+  if (py::isinstance<py::array>(paths)) {
+    if (py::reinterpret_borrow<py::array>(paths).ndim() != 3) {
+      throw py::value_error("paths must be an (N, 4, 4) array of poses or a sequence of them, got an array of " +
+                            std::to_string(py::reinterpret_borrow<py::array>(paths).ndim()) + " dimensions");
+    }
+    out.push_back(poses_of(paths, "paths"));
+    return out;
+  }
+  if (!py::isinstance<py::sequence>(paths) || py::isinstance<py::str>(paths)) {
+    throw py::value_error("paths must be an (N, 4, 4) array of poses or a sequence of them");
+  }
+  const auto seq = py::reinterpret_borrow<py::sequence>(paths);
+  for (std::size_t k = 0; k < seq.size(); ++k) {
+    out.push_back(poses_of(seq[k], format("paths[%zu]", k).c_str()));
+  }
+  return out;
+}
+
+py::tuple render_top(const Map& m, const std::string& layer_name, int max_pixels, std::optional<double> z_low,
+                     std::optional<double> z_high, const py::handle& paths_obj,
+                     const std::optional<std::vector<std::string>>& labels, bool legend) {
+  render::check_max_pixels(max_pixels);
+  const render::HeightRange range = height_range(z_low, z_high);
+  render::TopLayer layer = render::TopLayer::kHeight;
+  if (layer_name == "occupancy") {
+    layer = render::TopLayer::kOccupancy;
+  } else if (layer_name == "ground") {
+    layer = render::TopLayer::kGround;
+  } else if (layer_name != "height") {
+    throw py::value_error("layer must be 'height', 'occupancy' or 'ground', got '" + layer_name + "'");
+  }
+  const std::vector<PoseList> paths = paths_of(paths_obj);
+  if (labels && labels->size() != paths.size()) {
+    throw py::value_error(format("labels: %zu given for %zu paths", labels->size(), paths.size()));
+  }
+  std::vector<render::LabelledPath> labelled;
+  for (std::size_t k = 0; k < paths.size(); ++k) {
+    labelled.push_back({&paths[k], labels ? (*labels)[k] : format("path %zu", k + 1)});
+  }
+  render::TopPicture picture = m.read([&](const HMap& map, const OccupancyGrid* grid, std::span<const GroundPatch> ground) {
+    py::gil_scoped_release release;
+    if (layer == render::TopLayer::kOccupancy && (grid == nullptr || grid->known_cells() == 0)) {
+      // No grid kept scan by scan (a SLAM map, a Mapper's): the one `hmap export --pgm` derives.
+      const ExportedGrid derived = exported_grid(map, nullptr, ground, "both");
+      return render::render_top_view(map, layer, range, max_pixels, &derived.grid, derived.ground, labelled, legend);
+    }
+    return render::render_top_view(map, layer, range, max_pixels, grid, ground, labelled, legend);
+  });
+  return py::make_tuple(image_array(std::move(picture.image)), picture.viewport);
+}
+
+py::array_t<std::uint8_t> render_oblique(const Map& m, int max_pixels, std::optional<double> z_low,
+                                         std::optional<double> z_high) {
+  render::check_max_pixels(max_pixels);
+  const render::HeightRange range = height_range(z_low, z_high);
+  RgbImage image = m.read([&](const HMap& map, const OccupancyGrid*, std::span<const GroundPatch>) {
+    py::gil_scoped_release release;
+    return render::render_oblique(map, range, max_pixels);
+  });
+  return image_array(std::move(image));
+}
+
+py::array_t<std::uint8_t> draw_path(const py::handle& image, const render::TopViewport& vp, const py::handle& poses,
+                                    const std::array<int, 3>& colour) {
+  RgbImage img = image_of(image, "image");
+  for (const int c : colour) {
+    if (c < 0 || c > 255) throw py::value_error(format("colour must be three numbers in [0, 255], got %d", c));
+  }
+  const PoseList path = poses_of(poses, "poses");
+  render::draw_path(img, vp, path, static_cast<std::uint8_t>(colour[0]), static_cast<std::uint8_t>(colour[1]),
+                    static_cast<std::uint8_t>(colour[2]));
+  return image_array(std::move(img));
+}
+
 void write_png_array(const std::filesystem::path& path, const py::handle& image) {
-  if (!py::isinstance<py::array>(image)) throw py::value_error("image must be a numpy array of shape (H, W, 3), dtype uint8");
-  const auto arr = py::reinterpret_borrow<py::array>(image);
-  if (arr.ndim() != 3 || arr.shape(2) != 3 || arr.shape(0) < 1 || arr.shape(1) < 1) {
-    std::string shape = "(";
-    for (py::ssize_t d = 0; d < arr.ndim(); ++d) shape += (d ? ", " : "") + std::to_string(arr.shape(d));
-    throw py::value_error("image must have shape (H, W, 3) with H, W >= 1, got " + shape + (arr.ndim() == 1 ? ",)" : ")"));
-  }
-  if (!arr.dtype().is(py::dtype::of<std::uint8_t>())) {
-    throw py::value_error("image must hold uint8, got dtype " + std::string(py::str(arr.dtype())));
-  }
-  if (arr.shape(0) > 1 << 16 || arr.shape(1) > 1 << 16) throw py::value_error("image is larger than 65536 pixels on a side");
-  const auto c = py::array_t<std::uint8_t, py::array::c_style | py::array::forcecast>::ensure(arr);
-  RgbImage img;
-  img.width = static_cast<int>(arr.shape(1));
-  img.height = static_cast<int>(arr.shape(0));
-  img.rgb.assign(c.data(), c.data() + c.size());
+  const RgbImage img = image_of(image, "image");
   py::gil_scoped_release release;
   write_png(path, img);
 }
@@ -805,6 +879,50 @@ PYBIND11_MODULE(_hmap, m) {
          "patches. Returns {'occupied_voxels', 'free_voxels', 'leaves'}.");
   io.def("write_png", &write_png_array, py::arg("path"), py::arg("image"),
          "An (H, W, 3) uint8 RGB image (row 0 the top) as a PNG file, atomically.");
+
+  py::module_ pictures = m.def_submodule("render", "Pictures of maps as (H, W, 3) uint8 arrays (src/hmap/render)");
+  py::class_<render::TopViewport>(pictures, "Viewport",
+                                  "Where a top view lies: pixel (col, row) covers x in x0 + [col, col + 1]·m_per_px, "
+                                  "y in y1 − [row + 1, row]·m_per_px (north up).")
+      .def_readonly("x0", &render::TopViewport::x0, "World x at the picture's left edge [m].")
+      .def_readonly("y1", &render::TopViewport::y1, "World y at the picture's top edge [m].")
+      .def_readonly("m_per_px", &render::TopViewport::m_per_px, "Metres per pixel [m].")
+      .def_readonly("width", &render::TopViewport::width, "The map's width [px] (a legend panel lies beyond it).")
+      .def_readonly("height", &render::TopViewport::height, "The map's height [px].")
+      .def_property_readonly("origin", [](const render::TopViewport& v) {
+        return py::make_tuple(v.x0, v.y1 - v.height * v.m_per_px);
+      }, "(x, y) of the map's lower-left corner [m].")
+      .def_property_readonly("extent", [](const render::TopViewport& v) {
+        return py::make_tuple(v.x0, v.x0 + v.width * v.m_per_px, v.y1 - v.height * v.m_per_px, v.y1);
+      }, "(left, right, bottom, top) [m]: matplotlib's imshow(image[:, :width], extent=...).")
+      .def("pixel", [](const render::TopViewport& v, double x, double y) {
+        return py::make_tuple(static_cast<int>(std::floor(v.px(x))), static_cast<int>(std::floor(v.py(y))));
+      }, py::arg("x"), py::arg("y"), "pixel(x, y) -> (col, row): the pixel holding world point (x, y).")
+      .def("__repr__", [](const render::TopViewport& v) {
+        return format("hmap.render.Viewport(x0=%g, y1=%g, m_per_px=%g, width=%d, height=%d)", v.x0, v.y1, v.m_per_px,
+                      v.width, v.height);
+      });
+  pictures.def("top", &render_top, py::arg("map"), py::kw_only(), py::arg("layer") = "height",
+               py::arg("max_pixels") = 2000, py::arg("z_low") = py::none(), py::arg("z_high") = py::none(),
+               py::arg("paths") = py::none(), py::arg("labels") = py::none(), py::arg("legend") = false,
+               "top(map, *, layer='height', max_pixels=2000, z_low=None, z_high=None, paths=None, labels=None, "
+               "legend=False) -> (image, Viewport): the top view `hmap render` draws. layer: 'height' (each cell "
+               "coloured by its highest HVoxel top, blue z_low to red z_high, default the 2nd/98th percentiles; cells "
+               "with overhangs lighter; unknown black), 'occupancy' (the 2D grid as map_server draws it: free white, "
+               "occupied black, unknown grey; a map without a kept grid gets the one `hmap export --pgm` derives) or "
+               "'ground' (heights with Alg. 4's patches outlined). paths: an (N, 4, 4) array of poses or a sequence "
+               "of them, drawn over the map (widened by 2 m) in white (blue on the grid), then red, magenta, orange; "
+               "legend=True adds the CLI's legend and scale bar panel to the right (image wider than "
+               "Viewport.width). Raises ValueError (hmap.Error) for max_pixels outside [1, 20000], an empty map or "
+               "bad poses.");
+  pictures.def("oblique", &render_oblique, py::arg("map"), py::kw_only(), py::arg("max_pixels") = 2000,
+               py::arg("z_low") = py::none(), py::arg("z_high") = py::none(),
+               "oblique(map, *, max_pixels=2000, z_low=None, z_high=None) -> image: the HVoxels as bars seen from the "
+               "south-west, 35 degrees up, height-coloured (`hmap render --view oblique`).");
+  pictures.def("draw_path", &draw_path, py::arg("image"), py::arg("viewport"), py::arg("poses"),
+               py::arg("colour") = std::array<int, 3>{255, 0, 255},
+               "draw_path(image, viewport, poses, colour=(255, 0, 255)) -> image: a copy of a top view with the x, y "
+               "path of an (N, 4, 4) array of poses drawn 2 px wide, a dot at its start.");
 
   bind_sim(m);
   bind_pvox(m);

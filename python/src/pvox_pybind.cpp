@@ -19,6 +19,8 @@
 #include "hmap/pvox/mapper.hpp"
 #include "hmap/pvox/serialize.hpp"
 #include "hmap/pvox/voxel_map.hpp"
+#include "hmap/render/pvox_render.hpp"
+#include "hmap/render/render.hpp"
 
 namespace hmap::python {
 
@@ -141,6 +143,23 @@ void save_pvox(PyVoxelMap& self, const std::filesystem::path& path) {
 }
 
 }  // namespace
+
+/// The picture `hmap render` draws of a .pvox map: the bulk of it (render::bulk_view), from above or
+/// isometric.
+py::array_t<std::uint8_t> render_pvox(PyVoxelMap& self, const std::string& view_name, int max_pixels) {
+  if (view_name != "top" && view_name != "iso") throw py::value_error("view must be 'top' or 'iso', got '" + view_name + "'");
+  render::check_max_pixels(max_pixels);
+  RgbImage image;
+  {
+    py::gil_scoped_release release;
+    const std::scoped_lock lock(self.mutex);
+    if (self.map.occupied().empty()) throw Error("the map has no occupied voxel, nothing to draw");
+    render::PvoxView view = render::bulk_view(self.map);
+    view.max_pixels = max_pixels;
+    image = view_name == "iso" ? render::render_pvox_iso(self.map, view) : render::render_pvox_top(self.map, view);
+  }
+  return image_array(std::move(image));
+}
 
 void bind_pvox(py::module_& m) {
   PYBIND11_NUMPY_DTYPE(VoxelRow, i, j, k, x, y, z, probability, hits, misses);
@@ -294,6 +313,11 @@ void bind_pvox(py::module_& m) {
         const std::scoped_lock lock(self.mutex);
         return self.mapper.scans();
       });
+  py::module_ pictures = m.attr("render");
+  pictures.def("pvox", &render_pvox, py::arg("map"), py::kw_only(), py::arg("view") = "top", py::arg("max_pixels") = 1200,
+               "pvox(map, *, view='top', max_pixels=1200) -> image: a pvox.VoxelMap as `hmap render` draws a .pvox file: "
+               "its bulk (the 2nd-98th percentile box of the occupied voxels), 'top' (the highest occupied voxel per "
+               "pixel, height-coloured, with a scale bar panel) or 'iso' (shaded cubes from the south-west).");
 }
 
 }  // namespace hmap::python

@@ -8,7 +8,7 @@ import sys
 import numpy as np
 
 import hmap
-from conftest import REPO
+from conftest import REPO, data_dir, require_data
 from test_writers import read_pgm, read_png
 
 EXAMPLES = REPO / "examples" / "python"
@@ -55,3 +55,33 @@ def test_slam_and_evaluate(tmp_path):
     assert result["ate_rmse_m"] < result["odometry_ate_rmse_m"]
     assert result["ate_rmse_m"] < 0.3
     assert f"SLAM on 20 scans: ATE {result['ate_rmse_m']:.3f} m" in out
+
+
+def test_map_balm_plot(tmp_path):
+    require_data("balm_os0")
+    out = run("map_balm_plot.py", "--data", data_dir(), "--scans", "12", "--size", "640x480", "--out", tmp_path / "plot.png")
+    assert "wrote" in out and "12 scans" in out
+    image = plt_read(tmp_path / "plot.png")
+    assert image.shape[:2] == (480, 640)  # the size asked for
+    colours = {tuple(c) for c in image.reshape(-1, image.shape[2])}
+    assert len(colours) > 50  # the grid, the path, text and antialiased lines: not a blank figure
+    # The grid's three classes and the path's red are all there.
+    assert {(0, 0, 0), (255, 255, 255), (205, 205, 205)} <= {c[:3] for c in colours}
+    assert any(r > 180 and g < 60 and b < 60 for r, g, b in (c[:3] for c in colours))
+
+
+def test_map_balm_plot_without_the_data(tmp_path):
+    r = subprocess.run([sys.executable, str(EXAMPLES / "map_balm_plot.py"), "--data", tmp_path / "nowhere", "--out",
+                        tmp_path / "plot.png"], capture_output=True, text=True, env=dict(os.environ))
+    assert r.returncode == 2
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "nowhere/balm_os0 holds no velodyne/ scans" in lines[0], r.stderr
+    assert not (tmp_path / "plot.png").exists()
+
+
+def plt_read(path):
+    """A PNG as an (H, W, channels) uint8 array, read by matplotlib (RGBA from savefig)."""
+    import matplotlib.image
+
+    image = matplotlib.image.imread(path)
+    return np.round(image * 255).astype(np.uint8) if image.dtype != np.uint8 else image

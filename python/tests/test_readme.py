@@ -19,7 +19,7 @@ def readme_python_blocks():
 def test_readme_python_example_runs(tmp_path, monkeypatch, capsys):
     require_data("balm_os0")
     blocks = readme_python_blocks()
-    assert len(blocks) == 2
+    assert len(blocks) == 3
     # Written for the repository root, where ../shared/data is; run in a scratch folder instead.
     code = blocks[0].replace("../shared/data", str(data_dir()))
     script = tmp_path / "example.py"
@@ -45,3 +45,17 @@ def test_readme_slam_example_runs(tmp_path, monkeypatch, capsys):
     script.write_text(code)
     runpy.run_path(str(script), run_name="__main__")
     assert float(capsys.readouterr().out) < 1e-9
+
+
+def test_readme_plot_example_runs(tmp_path, monkeypatch):
+    require_data("balm_os0")
+    code = readme_python_blocks()[2].replace("../shared/data", str(data_dir()))
+    monkeypatch.chdir(tmp_path)
+    script = tmp_path / "example.py"
+    script.write_text(code)
+    runpy.run_path(str(script), run_name="__main__")
+    import matplotlib.image
+
+    image = matplotlib.image.imread(tmp_path / "balm_os0_grid.png")
+    assert image.shape[:2] == (480, 640)  # matplotlib's default figure, 6.4 x 4.8 in at 100 dpi
+    assert len({tuple(c) for c in (image.reshape(-1, image.shape[2]) * 255).round().astype(int)}) > 50

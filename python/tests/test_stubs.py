@@ -35,7 +35,7 @@ def bound_names(obj):
 def test_every_binding_has_a_stub():
     stubs = stub_names()
     for scope, obj in (("sim", _hmap.sim), ("pvox", _hmap.pvox), ("io", _hmap.io), ("eval", _hmap.eval),
-                       ("slam", _hmap.slam)):
+                       ("slam", _hmap.slam), ("render", _hmap.render)):
         missing = {n for n in bound_names(obj) if not inspect.ismodule(getattr(obj, n))} - stubs[scope]
         assert not missing, f"{scope}: no stub for {sorted(missing)}"
         for name in bound_names(obj):
@@ -56,7 +56,7 @@ def test_every_class_member_has_a_stub():
 
 
 def test_new_bindings_have_docstrings():
-    for obj in (_hmap.sim, _hmap.pvox):
+    for obj in (_hmap.sim, _hmap.pvox, _hmap.render):
         for name in bound_names(obj):
             member = getattr(obj, name)
             assert member.__doc__ and len(member.__doc__) > 20, f"{obj.__name__}.{name}"

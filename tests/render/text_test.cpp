@@ -1,12 +1,12 @@
-// Text in pictures (apps/hmap/text.hpp): a real font, fitted to its box, drawn inside it.
+// Text in pictures (src/hmap/render/text.hpp): a real font, fitted to its box, drawn inside it.
 
-#include "text.hpp"
+#include "hmap/render/text.hpp"
 
 #include <gtest/gtest.h>
 
 #include <string>
 
-namespace hmap::cli {
+namespace hmap::render {
 namespace {
 
 /// The rightmost and lowest column / row holding ink (a pixel not white); -1 when none.
@@ -69,4 +69,4 @@ TEST(TextTest, FittedTextStaysInsideItsBox) {
 }
 
 }  // namespace
-}  // namespace hmap::cli
+}  // namespace hmap::render

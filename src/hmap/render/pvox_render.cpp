@@ -1,4 +1,4 @@
-#include "pvox_render.hpp"
+#include "hmap/render/pvox_render.hpp"
 
 #include <algorithm>
 #include <array>
@@ -6,9 +6,9 @@
 #include <limits>
 #include <vector>
 
-#include "render.hpp"
+#include "hmap/render/render.hpp"
 
-namespace hmap::cli {
+namespace hmap::render {
 
 namespace {
 
@@ -94,6 +94,7 @@ void draw_line(RgbImage& img, double x0, double y0, double x1, double y1, std::u
 }  // namespace
 
 RgbImage render_pvox_top(const pvox::VoxelMap& map, const PvoxView& view) {
+  check_max_pixels(view.max_pixels);
   const auto voxels = visible(map, view);
   if (voxels.empty()) return RgbImage(64, 64, 0);
   const double e = map.edge();
@@ -133,6 +134,7 @@ RgbImage render_pvox_top(const pvox::VoxelMap& map, const PvoxView& view) {
 }
 
 RgbImage render_pvox_iso(const pvox::VoxelMap& map, const PvoxView& view) {
+  check_max_pixels(view.max_pixels);
   auto voxels = visible(map, view);
   if (voxels.empty()) return RgbImage(64, 64, 0);
   const double e = map.edge();
@@ -179,6 +181,7 @@ RgbImage render_pvox_iso(const pvox::VoxelMap& map, const PvoxView& view) {
 }
 
 RgbImage render_pvox_gradient(const pvox::VoxelMap& map, const PvoxView& view, double z, int arrow_step_px) {
+  check_max_pixels(view.max_pixels);
   auto voxels = map.voxels();
   if (view.clip) std::erase_if(voxels, [&](const pvox::VoxelView& v) { return !view.clip->contains(v.centre); });
   if (voxels.empty()) return RgbImage(64, 64, 0);
@@ -227,4 +230,23 @@ RgbImage render_pvox_gradient(const pvox::VoxelMap& map, const PvoxView& view, d
   return img;
 }
 
-}  // namespace hmap::cli
+PvoxView bulk_view(const pvox::VoxelMap& map) {
+  PvoxView view;
+  const auto occupied = map.occupied();
+  if (occupied.size() > 100) {
+    Eigen::Vector3d lo;
+    Eigen::Vector3d hi;
+    for (int a = 0; a < 3; ++a) {
+      std::vector<double> c;
+      c.reserve(occupied.size());
+      for (const auto& v : occupied) c.push_back(v.centre[a]);
+      std::sort(c.begin(), c.end());
+      lo[a] = c[c.size() / 50] - map.edge();
+      hi[a] = c[c.size() - 1 - c.size() / 50] + map.edge();
+    }
+    view.clip = Eigen::AlignedBox3d(lo, hi);
+  }
+  return view;
+}
+
+}  // namespace hmap::render

@@ -1,4 +1,4 @@
-#include "text.hpp"
+#include "hmap/render/text.hpp"
 
 #include <ft2build.h>
 #include FT_FREETYPE_H
@@ -8,7 +8,7 @@
 
 #include "hmap/core/error.hpp"
 
-namespace hmap::cli {
+namespace hmap::render {
 
 namespace {
 
@@ -69,7 +69,7 @@ int line_height(FT_Face face) {
 }
 
 /// Measures, and draws when `image` is given, holding the font's mutex.
-TextSize render(RgbImage* image, int x, int y, std::string_view text, int pixel_height, std::uint8_t r, std::uint8_t g,
+TextSize typeset(RgbImage* image, int x, int y, std::string_view text, int pixel_height, std::uint8_t r, std::uint8_t g,
                 std::uint8_t b) {
   Font& font = Font::instance();
   const std::lock_guard lock(font.mutex);
@@ -103,11 +103,11 @@ TextSize render(RgbImage* image, int x, int y, std::string_view text, int pixel_
 
 }  // namespace
 
-TextSize measure_text(std::string_view text, int pixel_height) { return render(nullptr, 0, 0, text, pixel_height, 0, 0, 0); }
+TextSize measure_text(std::string_view text, int pixel_height) { return typeset(nullptr, 0, 0, text, pixel_height, 0, 0, 0); }
 
 TextSize draw_text(RgbImage& image, int x, int y, std::string_view text, int pixel_height, std::uint8_t r, std::uint8_t g,
                    std::uint8_t b) {
-  return render(&image, x, y, text, pixel_height, r, g, b);
+  return typeset(&image, x, y, text, pixel_height, r, g, b);
 }
 
 FittedText fit_text(std::string_view text, int max_width, int max_height, int min_height) {
@@ -155,4 +155,4 @@ int draw_fitted(RgbImage& image, int x, int y, const FittedText& text, std::uint
   return text.height();
 }
 
-}  // namespace hmap::cli
+}  // namespace hmap::render

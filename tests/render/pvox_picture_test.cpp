@@ -4,10 +4,10 @@
 #include <gtest/gtest.h>
 
 #include "hmap/pvox/voxel_map.hpp"
-#include "pvox_render.hpp"
-#include "render.hpp"
+#include "hmap/render/pvox_render.hpp"
+#include "hmap/render/render.hpp"
 
-namespace hmap::cli {
+namespace hmap::render {
 namespace {
 
 /// Black pixels of row `y` of `img` in [x0, x1).
@@ -52,4 +52,4 @@ TEST(PvoxPicture, TopViewHasAScaleBarOfTheLengthItNames) {
 }
 
 }  // namespace
-}  // namespace hmap::cli
+}  // namespace hmap::render

@@ -9,10 +9,10 @@
 #include <array>
 #include <cstdlib>
 
-#include "render.hpp"
-#include "text.hpp"
+#include "hmap/render/render.hpp"
+#include "hmap/render/text.hpp"
 
-namespace hmap::cli {
+namespace hmap::render {
 namespace {
 
 std::array<std::uint8_t, 3> pixel(const RgbImage& img, int x, int y) {
@@ -144,4 +144,4 @@ TEST(TopViewLegend, HeightViewPathsAreWhiteThenRedAndTheHeightEndsAreNamed) {
 }
 
 }  // namespace
-}  // namespace hmap::cli
+}  // namespace hmap::render

@@ -1,4 +1,4 @@
-#include "render.hpp"
+#include "hmap/render/render.hpp"
 
 #include "hmap/core/format.hpp"
 
@@ -11,9 +11,9 @@
 #include "hmap/core/error.hpp"
 #include "hmap/ground/ground_patches.hpp"
 #include "hmap/occupancy/occupancy_grid.hpp"
-#include "text.hpp"
+#include "hmap/render/text.hpp"
 
-namespace hmap::cli {
+namespace hmap::render {
 
 void height_colour(double t, std::uint8_t& r, std::uint8_t& g, std::uint8_t& b) {
   t = std::clamp(t, 0.0, 1.0);
@@ -36,8 +36,16 @@ HeightRange resolve_range(const HMap& map, HeightRange range) {
   return range;
 }
 
+void check_max_pixels(int max_pixels) {
+  if (max_pixels < 1 || max_pixels > kMaxPixels) {
+    throw Error(format("max_pixels = %d is out of its range [1, %d]: the picture's largest side in pixels", max_pixels,
+                       kMaxPixels));
+  }
+}
+
 RgbImage render_top(const HMap& map, const HeightRange& range_in, int max_pixels, TopViewport& vp,
                     double margin_m) {
+  check_max_pixels(max_pixels);
   const MapStats st = map.stats();
   if (st.hvoxels == 0) throw Error("the map is empty, nothing to draw");
   // One pixel per cell, or coarser for large maps.
@@ -47,6 +55,7 @@ RgbImage render_top(const HMap& map, const HeightRange& range_in, int max_pixels
 }
 
 RgbImage render_oblique(const HMap& map, const HeightRange& range_in, int max_pixels) {
+  check_max_pixels(max_pixels);
   const MapStats st = map.stats();
   if (st.hvoxels == 0) throw Error("the map is empty, nothing to draw");
   const HeightRange range = resolve_range(map, range_in);
@@ -292,7 +301,7 @@ RgbImage render_points_top(const PointCloud& points, const HeightRange& range, c
   return img;
 }
 
-void draw_ground_patches(RgbImage& image, const TopViewport& vp, const std::vector<GroundPatch>& patches,
+void draw_ground_patches(RgbImage& image, const TopViewport& vp, std::span<const GroundPatch> patches,
                          std::uint8_t r, std::uint8_t g, std::uint8_t b) {
   for (const GroundPatch& p : patches) {
     const double x0 = vp.px(p.center.x() - p.half_size);
@@ -421,4 +430,37 @@ void draw_paths_and_legend(RgbImage& image, const TopViewport& viewport, std::ve
   draw_legend_and_scale(image, viewport, legend);
 }
 
-}  // namespace hmap::cli
+TopPicture render_top_view(const HMap& map, TopLayer layer, const HeightRange& range_in, int max_pixels,
+                           const OccupancyGrid* grid, std::span<const GroundPatch> ground,
+                           const std::vector<LabelledPath>& paths, bool legend) {
+  if (layer == TopLayer::kOccupancy && (grid == nullptr || grid->known_cells() == 0)) {
+    throw Error("the map holds no 2D occupancy grid to draw");
+  }
+  if (layer == TopLayer::kGround && ground.empty()) throw Error("the map holds no ground patches to draw");
+  const HeightRange range = resolve_range(map, range_in);
+  TopPicture out;
+  out.image = render_top(map, range, max_pixels, out.viewport, paths.empty() ? 0.0 : 2.0);
+  if (layer == TopLayer::kOccupancy) {
+    out.image = render_occupancy(*grid, out.viewport, GridReading::for_map(map.params().occupancy));
+  } else if (layer == TopLayer::kGround) {
+    draw_ground_patches(out.image, out.viewport, ground, 255, 255, 255);
+  }
+  const bool on_grid = layer == TopLayer::kOccupancy;
+  std::vector<PathLayer> layers;
+  for (std::size_t k = 0; k < paths.size(); ++k) {
+    if (paths[k].poses == nullptr) continue;
+    const auto c = path_colour(k, on_grid);
+    layers.push_back({paths[k].poses, c[0], c[1], c[2], paths[k].label});
+  }
+  if (legend) {
+    const std::vector<LegendEntry> entries =
+        on_grid ? std::vector<LegendEntry>{{255, 255, 255, "free"}, {0, 0, 0, "occupied"}, {205, 205, 205, "unknown"}}
+                : height_legend(range);
+    draw_paths_and_legend(out.image, out.viewport, entries, layers);
+  } else {
+    for (const PathLayer& p : layers) draw_path(out.image, out.viewport, *p.poses, p.r, p.g, p.b);
+  }
+  return out;
+}
+
+}  // namespace hmap::render

@@ -9,7 +9,7 @@
 
 #include "hmap/io/png.hpp"
 
-namespace hmap::cli {
+namespace hmap::render {
 
 /// The box a line of text takes at `pixel_height` (the font's em in pixels): its advance width and
 /// the line's height (ascender − descender), in pixels.
@@ -40,4 +40,4 @@ struct FittedText {
 /// Draws a FittedText from (x, y) down; returns its height.
 int draw_fitted(RgbImage& image, int x, int y, const FittedText& text, std::uint8_t r, std::uint8_t g, std::uint8_t b);
 
-}  // namespace hmap::cli
+}  // namespace hmap::render

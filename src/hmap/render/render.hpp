@@ -3,16 +3,18 @@
 
 #include <array>
 #include <cmath>
+#include <span>
 #include <string>
 #include <string_view>
 #include <utility>
 #include <vector>
 
+#include "hmap/ground/ground_patches.hpp"
 #include "hmap/io/png.hpp"
 #include "hmap/maps/hmap.hpp"
 #include "hmap/occupancy/grid_reading.hpp"
 
-namespace hmap::cli {
+namespace hmap::render {
 
 /// Height colouring: z_low is blue, z_high red; NaN means "from the map" (2nd/98th percentile of
 /// the column tops).
@@ -35,6 +37,11 @@ struct TopViewport {
 /// The resolved height range (percentiles of the tops where not given).
 [[nodiscard]] HeightRange resolve_range(const HMap& map, HeightRange range);
 
+/// The largest side a picture may be asked for [px]: a picture's `max_pixels` must lie in
+/// [1, kMaxPixels]; check_max_pixels throws hmap::Error saying so otherwise.
+inline constexpr int kMaxPixels = 20000;
+void check_max_pixels(int max_pixels);
+
 /// Top-down: each pixel coloured by the highest HVoxel top below it; columns with several
 /// HVoxels (overhangs) drawn lighter; unknown black. `margin_m` widens the picture (for paths).
 [[nodiscard]] RgbImage render_top(const HMap& map, const HeightRange& range, int max_pixels,
@@ -51,14 +58,13 @@ void draw_path(RgbImage& image, const TopViewport& viewport, const PoseList& pos
 /// Blue → cyan → green → yellow → red for t in [0, 1].
 void height_colour(double t, std::uint8_t& r, std::uint8_t& g, std::uint8_t& b);
 
-}  // namespace hmap::cli
+}  // namespace hmap::render
 
 namespace hmap {
 class OccupancyGrid;
-struct GroundPatch;
 }  // namespace hmap
 
-namespace hmap::cli {
+namespace hmap::render {
 
 /// The viewport over [x0, x1] × [y0, y1] [m]: one pixel per `cell`, or coarser so that neither
 /// side exceeds `max_pixels`. Pictures drawn in one viewport line up pixel for pixel.
@@ -77,7 +83,7 @@ namespace hmap::cli {
                                          const TopViewport& viewport);
 
 /// Alg. 4's tree over a top view: each patch's square outlined, each edge to its parent drawn.
-void draw_ground_patches(RgbImage& image, const TopViewport& viewport, const std::vector<GroundPatch>& patches,
+void draw_ground_patches(RgbImage& image, const TopViewport& viewport, std::span<const GroundPatch> patches,
                          std::uint8_t r, std::uint8_t g, std::uint8_t b);
 
 
@@ -137,4 +143,34 @@ void draw_paths_and_legend(RgbImage& image, const TopViewport& viewport, std::ve
 /// size for all (text.hpp: smaller, then wrapped).
 [[nodiscard]] RgbImage side_by_side(const std::vector<std::pair<std::string, RgbImage>>& panels);
 
-}  // namespace hmap::cli
+
+/// What a top view shows under its paths: the HVoxel tops (render_top), the 2D grid as map_server
+/// draws it (render_occupancy), or the tops with Alg. 4's patches outlined white.
+enum class TopLayer { kHeight, kOccupancy, kGround };
+
+/// A path for render_top_view, named in the legend by `label`.
+struct LabelledPath {
+  const PoseList* poses = nullptr;
+  std::string label;
+};
+
+/// A top view and where its map lies: `viewport` applies to the pixels x < viewport.width (a
+/// legend panel, when drawn, lies to their right; the picture may be taller than the map).
+struct TopPicture {
+  RgbImage image;
+  TopViewport viewport;
+};
+
+/// The top view `hmap render` draws (and `hmap slam`, `hmap demo`): the map's bounds, widened by
+/// 2 m on each side when there are paths, at one pixel per cell or coarser so that neither side of
+/// the map exceeds `max_pixels`; `layer` under the paths, path k drawn in path_colour(k) with a dot
+/// at its start; with `legend`, the legend (the height range's ends, or free / occupied / unknown on
+/// the grid, then each path's label) and the scale bar in a panel to the right
+/// (draw_paths_and_legend). `grid` is read with GridReading::for_map(map.params().occupancy).
+/// Throws hmap::Error for an empty map, max_pixels out of range, kOccupancy without a grid holding
+/// a known cell, or kGround without patches.
+[[nodiscard]] TopPicture render_top_view(const HMap& map, TopLayer layer, const HeightRange& range, int max_pixels,
+                                         const OccupancyGrid* grid, std::span<const GroundPatch> ground,
+                                         const std::vector<LabelledPath>& paths, bool legend);
+
+}  // namespace hmap::render
