@@ -92,7 +92,7 @@ void run_slam(const SlamOptions& o) {
   }();
   prepare_output_set(o.out, {"poses.txt", "poses_tum.txt", "matches.csv", "map.hmap", "trajectory.png"}, "slam");  // before the work
   if (!o.mcap.empty()) check_mcap_output(o.mcap);
-  const ScanSource src = ScanSource::open(o.sensors, o.kitti, o.files, "", o.scans, /*poses_required=*/false);
+  const ScanSource src = o.open_inputs(/*poses_required=*/false);  // no --poses here
   // Defaults the first scan can tell (the ring spacing), for parameters left at the preset's value.
   CloudReadStats read_stats;
   std::optional<PointCloud> first;
