@@ -16,6 +16,7 @@ write_png = _io.write_png
 open_source = _io.open_source
 ScanSequence = _io.ScanSequence
 read_imu = _io.read_imu
+read_bag_imu = _io.read_bag_imu
 
 
 def kitti_sequence(dir, max_scans=None, *, poses=None, up=None, rotation=None, with_times=False):
@@ -84,5 +85,5 @@ def _path(p):
 
 
 __all__ = ["read_cloud", "read_poses", "open_kitti", "kitti_sequence", "scan_sequence", "rgbd_sequence", "bag_sequence",
-           "open_source", "ScanSequence", "read_imu", "write_ply", "write_points_ply", "write_pgm",
+           "open_source", "ScanSequence", "read_imu", "read_bag_imu", "write_ply", "write_points_ply", "write_pgm",
            "write_bt", "write_png"]

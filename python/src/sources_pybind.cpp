@@ -20,6 +20,9 @@
 #include "hmap/io/imu_text.hpp"
 #include "hmap/sources/open_scan_source.hpp"
 #include "arrays.hpp"
+#ifdef HMAP_HAVE_ROS
+#include "hmap/ros/bag_reader.hpp"
+#endif
 
 namespace py = pybind11;
 
@@ -201,6 +204,22 @@ void bind_sources(py::module_& io) {
          py::arg("max_scans") = py::none(), py::arg("with_times") = false,
          "The library's open_scan_source with the CLI's inputs as keywords (one input of kitti, files, rgbd, tum, "
          "bag); a ScanSequence. hmap.io.kitti_sequence, scan_sequence, rgbd_sequence and bag_sequence call it.");
+  io.def("read_bag_imu", [](const std::filesystem::path& path, const std::string& topic) -> py::object {
+#ifdef HMAP_HAVE_ROS
+    std::optional<ImuSamples> samples;
+    {
+      py::gil_scoped_release release;
+      if (const auto found = ros::bag_imu_topic(path, topic)) samples = ros::read_bag_imu(path, *found);
+    }
+    return samples ? py::object(imu_dict(*samples)) : py::object(py::none());
+#else
+    (void)path;
+    (void)topic;
+    throw Error("this hmap was built without ROS bag support");
+#endif
+  }, py::arg("path"), py::arg("topic") = "",
+     "The sensor_msgs/Imu messages of a recording as read_imu gives a file's, as `hmap slam --bag` takes them: "
+     "`topic` (--imu-topic), else the recording's only Imu topic; None when it has none.");
   io.def("read_imu", [](const std::filesystem::path& path) { return imu_dict(read_imu_text(path)); }, py::arg("path"),
          "An IMU text file as `hmap slam --imu` reads it (t gx gy gz ax ay az [qx qy qz qw]): {'stamps': (N,) [s], "
          "'gyro': (N, 3) [rad/s], 'accel': (N, 3) [m/s^2], 'orientation': (N, 4) x y z w (NaN rows where a sample "

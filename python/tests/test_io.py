@@ -308,3 +308,29 @@ def test_bag_sequence_times_topics_and_errors(bags):
         hmap.io.bag_sequence(bags / "imu.bag", cloud_topic="/nope", pose_topic="/odom")
     with pytest.raises(hmap.Error, match="give either --pose-topic or --tf-frames, not both"):
         hmap.io.bag_sequence(bags / "tf.bag", pose_topic="/odom", tf_frames="map")
+
+
+def test_slam_on_a_bag_with_its_imu_gives_the_poses_of_hmap_slam(tmp_path, bags):
+    """`hmap slam --bag imu.bag --pose-topic /odom` takes the bag's /imu and its poses' attitude; the
+    same from bag_sequence, read_bag_imu and Slam gives the same poses and map."""
+    cli = cli_or_skip()
+    bag = bags / "imu.bag"
+    run = subprocess.run([str(cli), "slam", "--bag", str(bag), "--pose-topic", "/odom", "--out", str(tmp_path / "O")],
+                         check=True, capture_output=True, text=True)
+    imu = hmap.io.read_bag_imu(bag)
+    assert f"IMU: {len(imu['stamps'])} samples from {bag} /imu" in run.stdout
+    np.testing.assert_array_equal(imu["accel"][0], [0, 0, 9.81])  # as make_test_bags.py writes them
+    assert imu["orientation"] is None and hmap.io.read_bag_imu(bags / "tf.bag") is None
+    seq = hmap.io.bag_sequence(bag, pose_topic="/odom", with_times=True)
+    slam = None
+    for points, pose, stamp, times in seq:
+        if slam is None:
+            slam = hmap.slam.Slam(hmap.params_for_scan(points)["params"], imu=imu)
+        step = slam.process(points, stamp, times, attitude=pose)  # the bag's poses give the attitude
+        assert step["deskewed"]
+    np.testing.assert_allclose(slam.poses[:, :3, :], np.loadtxt(tmp_path / "O" / "poses.txt").reshape(-1, 3, 4),
+                               rtol=0, atol=1e-9)
+    slam.map.save(tmp_path / "py.hmap")
+    assert (tmp_path / "py.hmap").read_bytes() == (tmp_path / "O" / "map.hmap").read_bytes()
+    with pytest.raises(hmap.InputError, match="imu_two.bag"):
+        hmap.io.read_bag_imu(bags / "imu_two.bag")  # two Imu topics, none named
