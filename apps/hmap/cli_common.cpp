@@ -3,7 +3,6 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
@@ -11,11 +10,7 @@
 #include "hmap/core/error.hpp"
 #include "hmap/core/format.hpp"
 #include "hmap/io/atomic_file.hpp"
-#include "hmap/io/cloud_reader.hpp"
 #include "hmap/io/config.hpp"
-#include "hmap/io/gravity.hpp"
-#include "hmap/io/kitti.hpp"
-#include "hmap/io/poses.hpp"
 #include "hmap/sources/open_scan_source.hpp"
 #include "hmap/core/sensor_profile.hpp"
 
