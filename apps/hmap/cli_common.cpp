@@ -3,7 +3,6 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
@@ -11,12 +10,8 @@
 #include "hmap/core/error.hpp"
 #include "hmap/core/format.hpp"
 #include "hmap/io/atomic_file.hpp"
-#include "hmap/io/cloud_reader.hpp"
 #include "hmap/io/config.hpp"
-#include "hmap/io/gravity.hpp"
-#include "hmap/io/kitti.hpp"
-#include "hmap/io/poses.hpp"
-#include "hmap/io/rgbd.hpp"
+#include "hmap/sources/open_scan_source.hpp"
 #include "hmap/core/sensor_profile.hpp"
 
 namespace hmap::cli {
@@ -50,48 +45,6 @@ std::string chosen_summary(const ScanParams& chosen) {
   return text;
 }
 
-ScanSource ScanSource::open(const std::string& kitti_dir, const std::vector<std::string>& files,
-                            const std::string& poses_file, std::size_t max_scans, bool poses_required) {
-  ScanSource src;
-  if (!kitti_dir.empty() && !files.empty()) throw Error("give either --kitti DIR or scan files, not both");
-  if (kitti_dir.empty() && files.empty()) throw Error("no scans: give --kitti DIR or scan files");
-  if (!kitti_dir.empty()) {
-    KittiSequenceOptions options;
-    if (max_scans > 0) options.max_scans = max_scans;
-    KittiSequence seq = open_kitti_sequence(kitti_dir, options);
-    src.scans = seq.scan_paths;
-    src.stamps = std::move(seq.times);
-    if (seq.T_map_scan) {
-      src.T_map_scan = std::move(seq.T_map_scan);
-      src.poses_name = (std::filesystem::path(kitti_dir) / "poses.txt").string();
-    }
-  } else {
-    for (const auto& f : files) src.scans.emplace_back(f);
-  }
-  if (max_scans > 0 && src.scans.size() > max_scans) src.scans.resize(max_scans);
-  if (!poses_file.empty()) {
-    PoseFile file = read_stamped_pose_file(poses_file);
-    src.T_map_scan = std::move(file.poses);
-    src.poses_name = poses_file;
-    // The scans' own stamps (a KITTI folder's times.txt) first, else the poses'.
-    if (src.stamps.empty()) src.stamps = std::move(file.times);
-  }
-  if (src.T_map_scan) {
-    auto& poses = *src.T_map_scan;
-    const bool truncated = max_scans > 0 && poses.size() > src.scans.size() && src.scans.size() == max_scans;
-    if (poses.size() != src.scans.size() && !truncated) {
-      throw InputError(src.poses_name, "", "holds " + std::to_string(poses.size()) + " poses for " +
-                                               std::to_string(src.scans.size()) + " scans");
-    }
-    poses.resize(src.scans.size());
-    if (src.stamps.size() > poses.size()) src.stamps.resize(poses.size());
-  } else if (poses_required) {
-    throw Error("no poses: give --poses FILE (KITTI or TUM format) or a KITTI folder with poses.txt; "
-                "to estimate poses from the scans, use `hmap slam`");
-  }
-  return src;
-}
-
 void ScanSourceOptions::add_to(CLI::App& app) {
   app.add_option("--rgbd", rgbd, "RGB-D folder: 7-Scenes (frame-N.depth.png + .pose.txt) or TUM (depth.txt + groundtruth.txt)");
   app.add_option("--tum", tum, "TUM RGB-D folder (depth.txt, groundtruth.txt; depth in 1/5000 m)");
@@ -121,140 +74,29 @@ void InputOptions::add_input_options(CLI::App& app, const std::string& poses_hel
   sensors.add_to(app);
 }
 
-ScanSource InputOptions::open_inputs(bool poses_required) const {
-  return ScanSource::open(sensors, kitti, files, poses, scans, poses_required);
+ScanSourceSpec InputOptions::spec(bool poses_required) const {
+  ScanSourceSpec spec;
+  spec.kitti = kitti;
+  spec.files = files;
+  spec.poses = poses;
+  spec.max_scans = scans;
+  spec.poses_required = poses_required;
+  spec.rgbd = sensors.rgbd;
+  spec.tum = sensors.tum;
+  spec.intrinsics = sensors.intrinsics;
+  spec.depth_scale = sensors.depth_scale;
+  spec.up = sensors.up;
+  for (const auto& token : sensors.rotation) spec.rotation += token + " ";
+  spec.bag = sensors.bag;
+  spec.cloud_topic = sensors.cloud_topic;
+  spec.pose_topic = sensors.pose_topic;
+  spec.tf_frames = sensors.tf_frames;
+  spec.budget = &memory_budget();
+  spec.warn = [](const std::string& w) { std::fprintf(stderr, "hmap: warning: %s\n", w.c_str()); };
+  return spec;
 }
 
-namespace {
-
-/// The depth images of an RGB-D folder, back-projected one at a time.
-class RgbdFrames final : public FrameReader {
- public:
-  explicit RgbdFrames(RgbdSequence seq) : seq_(std::move(seq)) {}
-  [[nodiscard]] PointCloud read(std::size_t index, CloudReadStats& stats, std::vector<float>* times_s) const override {
-    if (times_s != nullptr) times_s->clear();
-    return read_rgbd_frame(seq_, index, &stats);
-  }
-
- private:
-  RgbdSequence seq_;
-};
-
-/// T_map_world from --rotation, --up AXIS or --up floor (the dominant near-horizontal plane of a
-/// few frames, up to 8 spread over the run, 20k points each at most).
-void make_gravity_aligned(ScanSource& src, const ScanSourceOptions& o, bool rgbd) {
-  std::string up = o.up;
-  if (up.empty() && o.rotation.empty() && rgbd) up = "floor";
-  if (up.empty() && o.rotation.empty()) return;
-  if (!up.empty() && !o.rotation.empty()) throw Error("give either --up or --rotation, not both");
-  if (!src.T_map_scan) throw Error("--up and --rotation turn the poses of the scans; these scans have none");
-  auto& poses = *src.T_map_scan;
-  Pose T_map_world = Pose::Identity();
-  if (!o.rotation.empty()) {
-    std::string joined;
-    for (const auto& token : o.rotation) joined += token + " ";
-    T_map_world = parse_rotation(joined);
-  } else if (up == "floor") {
-    // The cameras' (or scanners') own up vectors give the prior: −y of an optical frame, +z otherwise.
-    Eigen::Vector3d prior = Eigen::Vector3d::Zero();
-    for (const auto& T : poses) prior += rgbd ? Eigen::Vector3d(-T.linear().col(1)) : Eigen::Vector3d(T.linear().col(2));
-    PointCloud points_world;
-    const std::size_t frames = std::min<std::size_t>(8, src.scans.size());
-    CloudReadStats ignored;
-    for (std::size_t f = 0; f < frames; ++f) {
-      const std::size_t k = frames > 1 ? f * (src.scans.size() - 1) / (frames - 1) : 0;
-      const PointCloud cloud = src.read(k, ignored);
-      const std::size_t step = std::max<std::size_t>(1, cloud.size() / 20000);
-      for (std::size_t i = 0; i < cloud.size(); i += step) {
-        points_world.push_back((poses[k] * cloud[i].cast<double>()).cast<float>());
-      }
-    }
-    std::vector<Eigen::Vector3d> sensors;
-    for (const auto& T : poses) sensors.push_back(T.translation());
-    const FloorParams floor_params;
-    FloorEstimate floor = estimate_floor(points_world, prior, floor_params, sensors);
-    if (!floor.found) {
-      throw Error(format("no floor plane found in %zu frames (a plane within %.0f deg of the sensors' up and %.0f m of a sensor, "
-                         "holding %.0f %% of the points); give the up axis with --up AXIS or --rotation",
-                         frames, floor_params.max_tilt * 180.0 / M_PI, floor_params.max_sensor_distance,
-                         floor_params.min_inlier_fraction * 100.0));
-    }
-    const bool flipped = orient_floor_below_sensors(floor, sensors, prior);
-    T_map_world = gravity_rotation(floor.up_world);
-    src.description += format("%sup from the floor plane (%.3f, %.3f, %.3f)%s, %zu of %zu points on it",
-                              src.description.empty() ? "" : "; ", floor.up_world.x(), floor.up_world.y(),
-                              floor.up_world.z(), flipped ? " (turned to face the sensors above it)" : "",
-                              floor.inliers, floor.points);
-  } else {
-    T_map_world = gravity_rotation(parse_up_axis(up));
-    src.description += (src.description.empty() ? "" : "; ") + std::string("world up axis ") + up;
-  }
-  for (auto& T : poses) T = T_map_world * T;
-}
-
-}  // namespace
-
-ScanSource ScanSource::open(const ScanSourceOptions& o, const std::string& kitti_dir,
-                            const std::vector<std::string>& files, const std::string& poses_file, std::size_t max_scans,
-                            bool poses_required) {
-  const int inputs = static_cast<int>(!o.rgbd.empty()) + static_cast<int>(!o.tum.empty()) + static_cast<int>(!o.bag.empty()) +
-                     static_cast<int>(!kitti_dir.empty()) + static_cast<int>(!files.empty());
-  if (inputs > 1) throw Error("give one input: --kitti DIR, scan files, --rgbd DIR, --tum DIR or --bag FILE");
-  if (!o.any_input()) {
-    ScanSource src = open(kitti_dir, files, poses_file, max_scans, poses_required);
-    make_gravity_aligned(src, o, false);
-    return src;
-  }
-  if (!poses_file.empty()) throw Error("--poses applies to scan files and KITTI folders; RGB-D folders and bags carry their poses");
-  ScanSource src;
-  const bool rgbd = !o.rgbd.empty() || !o.tum.empty();
-  if (rgbd) {
-    const std::string dir = o.rgbd.empty() ? o.tum : o.rgbd;
-    RgbdOptions options;
-    if (!o.intrinsics.empty()) options.intrinsics = o.intrinsics;
-    options.depth_scale = o.depth_scale;
-    options.max_frames = max_scans;
-    RgbdSequence seq = open_rgbd_sequence(dir, options);
-    if (!o.tum.empty() && seq.layout != RgbdLayout::kTum) throw InputError(dir, "", "is not a TUM RGB-D folder (no depth.txt)");
-    src.T_map_scan.emplace();
-    for (const auto& frame : seq.frames) {
-      src.scans.push_back(frame.depth_png);
-      src.T_map_scan->push_back(frame.T_world_cam);
-    }
-    src.poses_name = dir;
-    src.description = std::to_string(seq.frames.size()) + " RGB-D frames of " + dir +
-                      (seq.layout == RgbdLayout::kTum ? " (TUM)" : " (7-Scenes)");
-    if (seq.frames_without_pose > 0) src.description += ", " + std::to_string(seq.frames_without_pose) + " without pose skipped";
-    src.frames = std::make_shared<RgbdFrames>(std::move(seq));
-  } else {
-#ifdef HMAP_HAVE_ROS
-    src = open_bag_source(o, max_scans);
-#else
-    throw Error("this hmap was built without ROS bag support: apt-get install librosbag-dev libsensor-msgs-dev "
-                "libnav-msgs-dev libtf2-msgs-dev, then configure and build again");
-#endif
-  }
-  make_gravity_aligned(src, o, rgbd);
-  return src;
-}
-
-PointCloud ScanSource::read(std::size_t index, CloudReadStats& stats, std::vector<float>* times_s) const {
-  if (times_s != nullptr) times_s->clear();
-  if (frames) return frames->read(index, stats, times_s);
-  CloudReadStats s;
-  const auto& path = scans.at(index);
-  std::string ext = path.extension().string();
-  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  if (ext == ".png") throw InputError(path.string(), "", "a depth image needs its camera: use --rgbd DIR or --tum DIR");
-  // Before the read: the file's bytes are held while its points are parsed (at most as many bytes
-  // again for the binary formats, fewer for the text ones).
-  std::error_code size_error;
-  const std::uintmax_t size = std::filesystem::file_size(path, size_error);
-  if (!size_error) memory_budget().require(2.0 * static_cast<double>(size), path.string() + ": reading the scan");
-  PointCloud cloud = read_cloud(path, &s, times_s, &memory_budget());
-  stats += s;
-  return cloud;
-}
+ScanSource InputOptions::open_inputs(bool poses_required) const { return open_scan_source(spec(poses_required)); }
 
 Progress::Progress(std::string what, std::size_t total)
     : what_(std::move(what)), total_(total), active_(::isatty(STDERR_FILENO) == 1), last_() {}

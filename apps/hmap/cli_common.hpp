@@ -20,6 +20,7 @@
 #include "hmap/core/types.hpp"
 #include "hmap/io/config.hpp"
 #include "hmap/io/cloud_stats.hpp"
+#include "hmap/io/scan_source.hpp"
 
 namespace hmap::cli {
 
@@ -47,8 +48,8 @@ struct ParamOptions {
 
 /// The sensor inputs beyond scan files, shared by every command that reads scans: RGB-D folders
 /// (7-Scenes, TUM), ROS bags, and the rotation that makes the data's world frame gravity-aligned.
-/// A command adopts them with a member `ScanSourceOptions sensors;`, `sensors.add_to(*cmd)`, and
-/// `ScanSource::open(sensors, kitti, files, poses, max_scans, poses_required)`.
+/// A command adopts them through InputOptions; they become the fields of a ScanSourceSpec
+/// (hmap/io/scan_source.hpp), opened by the library's open_scan_source.
 struct ScanSourceOptions {
   std::string rgbd;                   ///< 7-Scenes or TUM RGB-D folder (layout told by its files)
   std::string tum;                    ///< TUM RGB-D folder (must hold depth.txt)
@@ -62,7 +63,6 @@ struct ScanSourceOptions {
   std::vector<std::string> tf_frames; ///< MAP [SENSOR] frames of /tf
 
   void add_to(CLI::App& app);
-  [[nodiscard]] bool any_input() const { return !rgbd.empty() || !tum.empty() || !bag.empty(); }
 };
 
 /// Help texts of the input options, one definition for every command (tested against `--help`).
@@ -72,39 +72,6 @@ inline constexpr const char* kScanFilesHelp =
     "Scan files, in order: .pcd .ply .bin (KITTI) .xyz .txt .csv .pts .vtk (legacy POLYDATA / UNSTRUCTURED_GRID)";
 inline constexpr const char* kKnownPosesHelp = "Poses T_map_scan, KITTI or TUM format, one per scan";
 inline constexpr const char* kScanCountHelp = "Use only the first N scans (0, the default: all of them)";
-
-/// Reads the frames of a source that is not a list of files (an RGB-D folder, a bag).
-class FrameReader {
- public:
-  virtual ~FrameReader() = default;
-  /// `times_s` given: each point's time [s] when the frame carries one, else left empty.
-  [[nodiscard]] virtual PointCloud read(std::size_t index, CloudReadStats& stats,
-                                        std::vector<float>* times_s = nullptr) const = 0;
-};
-
-/// The scans of a run and their poses: a KITTI folder or a list of files.
-struct ScanSource {
-  std::vector<std::filesystem::path> scans;
-  std::optional<PoseList> T_map_scan;
-  std::string poses_name;  ///< the file the poses came from, for messages
-
-  /// `kitti_dir` or `files` (one of them), optional `poses_file` overriding the folder's, at most
-  /// `max_scans` scans (0 = all). Throws InputError for a pose count that does not match.
-  static ScanSource open(const std::string& kitti_dir, const std::vector<std::string>& files,
-                         const std::string& poses_file, std::size_t max_scans, bool poses_required);
-  /// Also RGB-D folders and bags (one of the inputs; `sensors.up`/`rotation` apply to any of them):
-  /// `scans` then names the depth images or "topic@stamp", T_map_scan is always set, and frames
-  /// are read one at a time by read().
-  static ScanSource open(const ScanSourceOptions& sensors, const std::string& kitti_dir,
-                         const std::vector<std::string>& files, const std::string& poses_file,
-                         std::size_t max_scans, bool poses_required);
-  /// `times_s` given: each point's time [s] for PCD files and bag clouds that carry one, else empty.
-  [[nodiscard]] PointCloud read(std::size_t index, CloudReadStats& stats, std::vector<float>* times_s = nullptr) const;
-
-  std::shared_ptr<const FrameReader> frames;  ///< set for RGB-D folders and bags
-  std::vector<double> stamps;                 ///< [s] per scan when the source has them (times.txt, TUM poses, bags)
-  std::string description;                    ///< e.g. "50 RGB-D frames of DIR (7-Scenes)"
-};
 
 /// One scan as read from its source, with what reading it counted and, when asked, its points' times.
 struct ReadScan {
@@ -126,13 +93,11 @@ struct InputOptions {
 
   /// `poses_help`: what --poses means to this command; empty for a command without --poses.
   void add_input_options(CLI::App& app, const std::string& poses_help);
+  /// The library's spec of these inputs, reads checked against memory_budget(), warnings printed.
+  [[nodiscard]] ScanSourceSpec spec(bool poses_required) const;
+  /// open_scan_source(spec(poses_required)).
   [[nodiscard]] ScanSource open_inputs(bool poses_required) const;
 };
-
-#ifdef HMAP_HAVE_ROS
-/// A bag's clouds as a ScanSource (cmd_bag.cpp).
-[[nodiscard]] ScanSource open_bag_source(const ScanSourceOptions& sensors, std::size_t max_scans);
-#endif
 
 /// A one-line progress bar on stderr when it is a terminal; silent otherwise.
 class Progress {

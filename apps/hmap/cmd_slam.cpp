@@ -92,7 +92,7 @@ void run_slam(const SlamOptions& o) {
   }();
   prepare_output_set(o.out, {"poses.txt", "poses_tum.txt", "matches.csv", "map.hmap", "trajectory.png"}, "slam");  // before the work
   if (!o.mcap.empty()) check_mcap_output(o.mcap);
-  const ScanSource src = ScanSource::open(o.sensors, o.kitti, o.files, "", o.scans, /*poses_required=*/false);
+  const ScanSource src = o.open_inputs(/*poses_required=*/false);  // no --poses here
   // Defaults the first scan can tell (the ring spacing), for parameters left at the preset's value.
   CloudReadStats read_stats;
   std::optional<PointCloud> first;
@@ -212,11 +212,7 @@ void run_slam(const SlamOptions& o) {
     if (stamped) in.stamp = times[k];
     in.attitude = att;
     in.guess = guess;
-    if (imu) {
-      imu->set_body_velocity(slam.velocity().linear);
-      const auto hi = std::max_element(point_times.begin(), point_times.end());
-      in.imu = imu->prior_at(times[k], hi == point_times.end() ? 0.0 : static_cast<double>(*hi));
-    }
+    if (imu) in.imu = imu->prior_for_scan(times[k], point_times, slam.velocity().linear);
     const slam::SlamStep step = for_scan(src, k, [&] {
       slam::SlamStep s = slam.process(in);
       memory_budget().require(static_cast<double>(slam.map().memory_bytes()), "the map");  // grows with the area seen

@@ -12,8 +12,10 @@ A thin shell over the C++ libraries (module ``_hmap``)::
     m.save("out.hmap")
 
 Also ``hmap.slam.Slam`` (poses from the scans, scan by scan), ``hmap.eval.trajectory`` (ATE, RPE),
-``hmap.io.kitti_sequence`` (a KITTI folder as (points, pose, stamp)), ``hmap.sim`` (scenes, sensors,
-paths: simulated scans), ``hmap.pvox`` (the PVOX voxel grid), ``hmap.render`` (pictures as NumPy images) and ``hmap.params_for_scan``
+``hmap.io.kitti_sequence``, ``scan_sequence``, ``rgbd_sequence``, ``bag_sequence`` (scans as
+(points, pose, stamp), as the CLI reads them), ``hmap.io.read_imu``, ``hmap.sim`` (scenes, sensors,
+paths: simulated scans), ``hmap.pvox`` (the PVOX voxel grid), ``hmap.render`` (pictures as NumPy
+images) and ``hmap.params_for_scan``
 (the parameters ``hmap map`` and ``hmap slam`` choose from the first scan).
 
 Errors of the library (bad parameters, malformed files) raise ``hmap.Error`` (``hmap.InputError``

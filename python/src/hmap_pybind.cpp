@@ -46,6 +46,8 @@ namespace hmap::python {
 
 void bind_sim(py::module_& m);   // sim_pybind.cpp
 void bind_pvox(py::module_& m);  // pvox_pybind.cpp
+void bind_sources(py::module_& io);                // sources_pybind.cpp
+ImuSamples imu_samples_of(const py::handle& imu);  // sources_pybind.cpp
 
 namespace {
 
@@ -74,6 +76,7 @@ struct MapperBox {
   std::optional<HybridMapper> hybrid;
   std::optional<slam::HmapSlam> slam;
   PoseList slam_poses;  ///< the poses SLAM merged its scans at, one per process()
+  std::optional<slam::ImuAttitudeFilter> imu;  ///< Slam(params, imu=...): the prior of each scan, as `hmap slam --imu`
 };
 
 struct PyMapper {
@@ -400,6 +403,7 @@ py::dict slam_process(PySlam& self, const py::handle& points, std::optional<doub
     }
   }
   if (stamp && !std::isfinite(*stamp)) throw py::value_error(format("stamp must be finite, got %g", *stamp));
+  if (self.box->imu && !stamp) throw py::value_error("a Slam with an IMU needs each scan's stamp [s], on the IMU's clock");
   slam::ScanInput in;
   in.points_sensor = pts;
   in.times = point_times;
@@ -411,6 +415,7 @@ py::dict slam_process(PySlam& self, const py::handle& points, std::optional<doub
   {
     py::gil_scoped_release release;  // `arr` keeps the viewed buffer alive meanwhile
     const std::scoped_lock lock(box.mutex);
+    if (box.imu) in.imu = box.imu->prior_for_scan(*stamp, in.times, box.slam->velocity().linear);
     step = box.slam->process(in);
     box.slam_poses.push_back(step.T_map_sensor);
   }
@@ -796,11 +801,15 @@ PYBIND11_MODULE(_hmap, m) {
       "Scan-to-map SLAM on the HMAP: each scan is matched against the map by Gauss-Newton over (x, y, yaw), z, "
       "roll and pitch fitted to the map's horizontal surfaces, then merged at the estimate. The first scan "
       "defines the map frame. Use hmap.params_for_scan(first_scan) for the parameters `hmap slam` runs with.")
-      .def(py::init([](const Params& p) {
+      .def(py::init([](const Params& p, const py::handle& imu) {
         auto box = std::make_shared<MapperBox>();
         box->slam.emplace(p);
+        if (!imu.is_none()) box->imu.emplace(imu_samples_of(imu), p);
         return PySlam{box};
-      }), py::arg("params"))
+      }), py::arg("params"), py::kw_only(), py::arg("imu") = py::none(),
+           "imu: IMU samples as hmap.io.read_imu returns them ({'stamps', 'gyro', 'accel'[, 'orientation']}); each "
+           "scan's stamp then says where it lies on the IMU's clock, and the IMU's gravity and rotation are its prior "
+           "as in `hmap slam --imu` (the mounting: slam.imu_roll, imu_pitch, imu_yaw).")
       .def("process", &slam_process, py::arg("points"), py::arg("stamp") = py::none(), py::arg("times") = py::none(),
            py::kw_only(), py::arg("attitude") = py::none(), py::arg("guess") = py::none(),
            py::arg("non_finite") = "raise",
@@ -924,6 +933,7 @@ PYBIND11_MODULE(_hmap, m) {
                "draw_path(image, viewport, poses, colour=(255, 0, 255)) -> image: a copy of a top view with the x, y "
                "path of an (N, 4, 4) array of poses drawn 2 px wide, a dot at its start.");
 
+  bind_sources(io);
   bind_sim(m);
   bind_pvox(m);
 }

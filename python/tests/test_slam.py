@@ -129,3 +129,57 @@ def test_slam_releases_the_gil(params):
         t.join()
     for s in slams:
         np.testing.assert_array_equal(s.poses, alone.poses)
+
+
+def test_slam_with_an_imu_gives_the_poses_of_hmap_slam_imu(tmp_path):
+    """`hmap simulate --imu-rate` writes imu.txt beside the scans; `hmap slam --imu` and
+    Slam(params, imu=hmap.io.read_imu(...)) given the same scans and stamps agree bit for bit. The
+    gyro turns the yaw guess; slam.imu_tilt_weight (0 by default) makes the gravity the tilt's too."""
+    cli = cli_or_skip()
+    sim = tmp_path / "S"
+    subprocess.run([str(cli), "simulate", "--scene", "parking", "--sensor", "vlp16", "--frames", "6", "--stride", "3",
+                    "--imu-rate", "100", "--out", str(sim)], check=True, capture_output=True)
+    out = tmp_path / "O"
+    run = subprocess.run([str(cli), "slam", "--kitti", str(sim), "--imu", str(sim / "imu.txt"), "--set",
+                          "slam.imu_tilt_weight=1", "--out", str(out)],
+                         check=True, capture_output=True, text=True)
+    assert "with the IMU's gravity as prior" in run.stdout
+    cli_poses = np.loadtxt(out / "poses.txt").reshape(-1, 3, 4)
+
+    imu = hmap.io.read_imu(sim / "imu.txt")
+    assert imu["gyro"].shape == (len(imu["stamps"]), 3) and imu["orientation"] is None
+    assert np.all(np.diff(imu["stamps"]) > 0) and np.allclose(np.linalg.norm(imu["accel"], axis=1), 9.81, atol=1.0)
+    scans = hmap.io.kitti_sequence(sim)
+    first, _, stamp = next(scans)
+    slam = hmap.slam.Slam(hmap.params_for_scan(first, overrides=["slam.imu_tilt_weight=1"])["params"], imu=imu)
+    steps = [slam.process(first, stamp)]
+    steps += [slam.process(points, stamp) for points, _, stamp in scans]
+    with open(out / "matches.csv") as f:
+        header = f.readline().strip().split(",")
+        cli_imu_used = [line.split(",")[header.index("imu")] == "1" for line in f]
+    assert [s["imu_used"] for s in steps] == cli_imu_used and all(cli_imu_used)
+    np.testing.assert_allclose(slam.poses[:, :3, :], cli_poses, rtol=0, atol=1e-9)
+    slam.map.save(tmp_path / "py.hmap")
+    assert (tmp_path / "py.hmap").read_bytes() == (out / "map.hmap").read_bytes()
+
+
+def test_slam_imu_refuses_bad_samples_and_unstamped_scans(params, tmp_path):
+    params.set("slam.imu_tilt_weight", 1.0)
+    imu = {"stamps": np.array([0.0, 0.01, 0.02]), "gyro": np.zeros((3, 3)), "accel": np.tile([0, 0, 9.81], (3, 1))}
+    slam = hmap.slam.Slam(params, imu=imu)
+    with pytest.raises(ValueError, match="needs each scan's stamp"):
+        slam.process(scene_points())
+    assert slam.process(scene_points(), 0.015)["imu_used"]
+    with pytest.raises(ValueError, match=r"imu: gyro must be an \(N, 3\) array"):
+        hmap.slam.Slam(params, imu=dict(imu, gyro=np.zeros((2, 3))))
+    with pytest.raises(ValueError, match="imu has no 'accel'"):
+        hmap.slam.Slam(params, imu={"stamps": imu["stamps"], "gyro": imu["gyro"]})
+    with pytest.raises(hmap.Error):
+        hmap.slam.Slam(params, imu=dict(imu, stamps=np.array([0.0, 0.0, 0.02])))  # stamps must increase
+    (tmp_path / "imu.txt").write_text("0 0 0 0 0 0 9.81\n0.01 0 0 0 0 0\n")
+    with pytest.raises(hmap.InputError, match=r"imu\.txt.*line 2"):
+        hmap.io.read_imu(tmp_path / "imu.txt")
+    (tmp_path / "imu.txt").write_text("0 0 0 0 0 0 9.81 0 0 0 1\n0.01 0.1 0 0 0 0 9.81 0 0 0 2\n")
+    read = hmap.io.read_imu(tmp_path / "imu.txt")
+    np.testing.assert_array_equal(read["orientation"], [[0, 0, 0, 1], [0, 0, 0, 1]])  # x y z w, normalised
+    np.testing.assert_array_equal(read["gyro"][1], [0.1, 0, 0])

@@ -124,6 +124,12 @@ void ImuAttitudeFilter::set_body_velocity(const Eigen::Vector3d& v_sensor) {
   v_world_ = R_world_imu_ * (R_sensor_imu_.transpose() * v_sensor);
 }
 
+ImuPrior ImuAttitudeFilter::prior_for_scan(double t, std::span<const float> times_s, const Eigen::Vector3d& v_sensor) {
+  set_body_velocity(v_sensor);
+  const auto hi = std::max_element(times_s.begin(), times_s.end());
+  return prior_at(t, hi == times_s.end() ? 0.0 : static_cast<double>(*hi));
+}
+
 ImuPrior ImuAttitudeFilter::prior_at(double t, double sweep) {
   if (scanned_ && t < now_) throw Error("IMU prior asked for a stamp before the previous scan's");
   applied_since_scan_ = 0;

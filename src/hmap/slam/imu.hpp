@@ -6,6 +6,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <cstddef>
+#include <span>
 #include <vector>
 
 #include "hmap/core/imu.hpp"
@@ -50,6 +51,11 @@ class ImuAttitudeFilter {
   /// 20°/s turn): from here on the velocity is taken to turn with the heading (the gyro's rate about
   /// the world's z), and that centripetal acceleration is taken off before the tilt is corrected.
   void set_body_velocity(const Eigen::Vector3d& v_sensor);
+
+  /// The prior for a scan stamped `t` whose points' times are `times_s` ([s]; the sweep is their
+  /// latest, 0 without), with `v_sensor` the velocity SLAM estimates now (HmapSlam::velocity): the
+  /// two calls above, as `hmap slam --imu` and hmap.slam.Slam make them before each scan.
+  [[nodiscard]] ImuPrior prior_for_scan(double t, std::span<const float> times_s, const Eigen::Vector3d& v_sensor);
 
   [[nodiscard]] const ImuSamples& samples() const { return samples_; }
 
