@@ -6,8 +6,8 @@
 // order with the hybrid map of `hmap map` at its defaults (the preset chosen from the first scan;
 // the HMAP, the ground patches and the 2D grid), and after every SEGMENT_M metres of path (and at
 // the end) prints one row: the path so far, the scans of the segment, the process CPU time
-// (user + sys, getrusage) per scan of the segment with the scans' reading included, the same for
-// the integration alone (thread CPU time), the map's HVoxels and memory (MapStats), the 2D grid's
+// (user + sys, getrusage, every thread) per scan of the segment with the scans' reading included,
+// the main thread's CPU time inside HybridMapper::integrate (TBB's workers not counted), the map's HVoxels and memory (MapStats), the 2D grid's
 // memory, the ground patches and the process's peak RSS so far. One process, one pass: the
 // segments' costs are read off the same run instead of differencing runs of N scans.
 
@@ -63,7 +63,7 @@ int main(int argc, char** argv) {
     hmap::HybridMapper hybrid(params);
     std::printf("%zu scans; cell %.3f m, range %.1f-%.1f m\n", seq.scan_paths.size(), params.map.cell_size,
                 params.map.min_range, params.map.max_range);
-    std::printf("| path [km] | scans | CPU per scan, read + map [ms] | map alone [ms] | HVoxels | HMAP memory [MiB] | "
+    std::printf("| path [km] | scans | CPU per scan, read + map [ms] | main thread in integrate [ms] | HVoxels | HMAP memory [MiB] | "
                 "2D grid [MiB] | ground patches | peak RSS [MiB] |\n| ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n");
     double path = 0.0;
     double next_mark = segment_m;
