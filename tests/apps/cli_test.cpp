@@ -552,6 +552,43 @@ TEST_F(CliTest, SimulateSweepWritesPerPointTimeThatSlamDeskews) {
   EXPECT_FALSE(std::filesystem::exists(path("bad")));
 }
 
+// simulate --scene city (issue 19): a drive through the town, its scans written as they are
+// made, no truth files; bad --route-km values and options of other scenes give one line, exit 2.
+TEST_F(CliTest, SimulateCityDriveAndItsBadOptions) {
+  const CmdResult sim = run("simulate --scene city --route-km 0.2 --frames 3 --stride 10 --out " + path("city"));
+  ASSERT_EQ(sim.code, 0) << sim.out;
+  for (const char* name : {"velodyne/000000.bin", "velodyne/000001.bin", "velodyne/000002.bin", "poses.txt", "times.txt",
+                           "odometry.txt"}) {
+    EXPECT_TRUE(std::filesystem::exists(path("city") + "/" + name)) << name;
+  }
+  EXPECT_FALSE(std::filesystem::exists(path("city/velodyne/000003.bin")));
+  EXPECT_FALSE(std::filesystem::exists(path("city/truth.ply")));
+  EXPECT_FALSE(std::filesystem::exists(path("city/truth_seen.ply")));
+  std::ifstream poses(path("city/poses.txt"));
+  std::size_t pose_lines = 0;
+  for (std::string line; std::getline(poses, line);) pose_lines += line.empty() ? 0 : 1;
+  EXPECT_EQ(pose_lines, 3U);
+  EXPECT_NE(sim.out.find("no truth files"), std::string::npos) << sim.out;
+
+  const std::pair<std::string, std::string> bad[] = {
+      {"--scene city --route-km 0", "--route-km"},
+      {"--scene city --route-km 0.05", "--route-km"},
+      {"--scene city --route-km 21", "--route-km"},
+      {"--scene city --route-km -3", "--route-km"},
+      {"--scene city --route-km nan", "--route-km"},
+      {"--scene city --route-km ten", "--route-km"},
+      {"--scene parking --route-km 2", "--route-km"},
+      {"--scene city --long-route", "--long-route"},
+  };
+  for (const auto& [args, named] : bad) {
+    const CmdResult r = run("simulate " + args + " --out " + path("bad"));
+    EXPECT_EQ(r.code, 2) << args << ": " << r.out;
+    EXPECT_EQ(lines(r.out), 1U) << args << ": " << r.out;
+    EXPECT_NE(r.out.find(named), std::string::npos) << args << ": " << r.out;
+    EXPECT_FALSE(std::filesystem::exists(path("bad"))) << args;
+  }
+}
+
 // The PVOX boxes experiment's ruler output: every edge of both filters in edges.csv, measured or
 // missing (never both, never a length without its faces), the counts and the average in report.json
 // agree with the rows, and every face matched with a plane names a plane of planes.csv.

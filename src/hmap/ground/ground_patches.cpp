@@ -47,13 +47,16 @@ struct GroundModel::Index {
   // The tree keeps references to `centres` and `patches`: an Index never moves (held by pointer).
   explicit Index(std::vector<GroundPatch> p)
       : patches(std::move(p)), centres{&patches},
-        tree(2, centres, nanoflann::KDTreeSingleIndexAdaptorParams(10)) {}
+        tree(2, centres, nanoflann::KDTreeSingleIndexAdaptorParams(10)) {
+    for (const GroundPatch& q : patches) max_half = std::max(max_half, q.half_size);
+  }
   Index(const Index&) = delete;
   Index& operator=(const Index&) = delete;
 
   std::vector<GroundPatch> patches;
   Centres centres;
   Tree tree;
+  double max_half = 0.0;  ///< of the patches' half_size, folded as std::max (a NaN one is passed over)
 };
 
 GroundModel::GroundModel() = default;
@@ -85,6 +88,7 @@ int GroundModel::add(const GroundPatch& patch) {
     return 0;
   }
   index_->patches.push_back(patch);
+  index_->max_half = std::max(index_->max_half, patch.half_size);
   const auto i = static_cast<std::uint32_t>(index_->patches.size() - 1);
   index_->tree.addPoints(i, i);
   return static_cast<int>(i);
@@ -100,6 +104,8 @@ int GroundModel::nearest_index(double x, double y) const {
   index_->tree.findNeighbors(result, query, nanoflann::SearchParams());
   return result.size() == 0 ? -1 : static_cast<int>(i);
 }
+
+double GroundModel::max_half_size() const { return index_ ? index_->max_half : 0.0; }
 
 const GroundPatch* GroundModel::nearest(double x, double y) const {
   const int i = nearest_index(x, y);

@@ -56,6 +56,9 @@ class GroundModel {
   [[nodiscard]] bool empty() const { return index_ == nullptr; }
   [[nodiscard]] std::size_t size() const { return empty() ? 0 : patches().size(); }
 
+  /// The largest half_size [m] of the patches (0 without any), kept as they are added: what a
+  /// search near a point needs to know without a pass over every patch.
+  [[nodiscard]] double max_half_size() const;
   /// Adds a patch (Alg. 4's addNode); returns its index. Queries stay valid without a rebuild.
   int add(const GroundPatch& patch);
 

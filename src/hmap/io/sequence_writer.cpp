@@ -67,14 +67,36 @@ void write_simulated_sequence(const std::filesystem::path& dir, std::span<const 
   if (error) throw Error("cannot create " + (dir / "velodyne").string() + ": " + error.message());
 
   for (std::size_t i = 0; i < frames.size(); ++i) {
-    std::string number = std::to_string(i);
-    if (number.size() < 6) number.insert(0, 6 - number.size(), '0');
     if (point_times.empty()) {
-      write_kitti_bin(dir / "velodyne" / (number + ".bin"), frames[i]);
+      write_simulated_frame(dir, i, frames[i]);
     } else {
-      write_pcd_with_time(dir / "velodyne" / (number + ".pcd"), frames[i], point_times[i]);
+      write_simulated_frame(dir, i, frames[i], point_times[i]);
     }
   }
+  write_simulated_records(dir, true_poses, times, odometry_poses, truth_points);
+}
+
+namespace {
+std::string frame_number(std::size_t index) {
+  std::string number = std::to_string(index);
+  if (number.size() < 6) number.insert(0, 6 - number.size(), '0');
+  return number;
+}
+}  // namespace
+
+void write_simulated_frame(const std::filesystem::path& dir, std::size_t index, const PointCloud& frame) {
+  write_kitti_bin(dir / "velodyne" / (frame_number(index) + ".bin"), frame);
+}
+
+void write_simulated_frame(const std::filesystem::path& dir, std::size_t index, const PointCloud& frame,
+                           std::span<const float> point_times) {
+  write_pcd_with_time(dir / "velodyne" / (frame_number(index) + ".pcd"), frame, point_times);
+}
+
+void write_simulated_records(const std::filesystem::path& dir, const PoseList& true_poses, std::span<const double> times,
+                             const PoseList& odometry_poses, const PointCloud& truth_points) {
+  check_count(times.size(), true_poses.size(), "times");
+  if (!odometry_poses.empty()) check_count(odometry_poses.size(), true_poses.size(), "odometry poses");
   write_poses_kitti(dir / "poses.txt", true_poses);
   write_file_atomic(dir / "times.txt", [&](std::ostream& out) {
     for (const double t : times) {

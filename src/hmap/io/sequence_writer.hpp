@@ -36,4 +36,18 @@ void write_simulated_sequence(const std::filesystem::path& dir, std::span<const 
                               const PoseList& odometry_poses, const PointCloud& truth_points,
                               std::span<const std::vector<float>> point_times = {});
 
+/// Writes frame `index` of a sequence folder as write_simulated_sequence does:
+/// dir/velodyne/NNNNNN.bin; dir/velodyne must exist. For writing a long recording frame by frame
+/// as it is made.
+void write_simulated_frame(const std::filesystem::path& dir, std::size_t index, const PointCloud& frame);
+/// The same with a time per point: dir/velodyne/NNNNNN.pcd (write_pcd_with_time).
+void write_simulated_frame(const std::filesystem::path& dir, std::size_t index, const PointCloud& frame,
+                           std::span<const float> point_times);
+
+/// The rest of write_simulated_sequence after its frames: poses.txt, times.txt, odometry.txt (when
+/// `odometry_poses` is not empty) and truth.ply (when `truth_points` is not empty). Throws
+/// hmap::Error when the counts of poses, times and (non-empty) odometry differ.
+void write_simulated_records(const std::filesystem::path& dir, const PoseList& true_poses, std::span<const double> times,
+                             const PoseList& odometry_poses, const PointCloud& truth_points);
+
 }  // namespace hmap

@@ -85,13 +85,15 @@ OccupancyUpdater::~OccupancyUpdater() = default;
 OccupancyUpdater::OccupancyUpdater(OccupancyUpdater&&) noexcept = default;
 OccupancyUpdater& OccupancyUpdater::operator=(OccupancyUpdater&&) noexcept = default;
 
-void OccupancyUpdater::index_patches(const ScanWindow& window, const std::vector<GroundPatch>& patches) {
+void OccupancyUpdater::index_patches(const ScanWindow& window, const GroundModel& ground) {
+  const std::vector<GroundPatch>& patches = ground.patches();
   const double cell = params_.map.cell_size;
   const double bucket = cell * (1 << kBlockBits);
   // The rim: a patch more than rim buckets from a block's centre is beyond ground_reach of every
   // cell of the block (Chebyshev distance from a cell >= Euclidean from the centre / √2 − 1.5 cells).
-  double max_half = 0.0;
-  for (const GroundPatch& p : patches) max_half = std::max(max_half, p.half_size);
+  // The largest half size is the model's, kept as patches are added: a pass over every patch here
+  // made each scan's cost grow with the map (issue 19, the 10 km drive).
+  const double max_half = ground.max_half_size();
   const double rim = std::ceil(std::sqrt(2.0) * (params_.occupancy.ground_reach + max_half + 1.5 * cell) / bucket);
   const std::optional<std::int32_t> rim_buckets = floor_to<std::int32_t>(rim);  // NaN and 1e300 patches: nothing
   bucket_rim_ = rim_buckets && *rim_buckets <= kMaxBucketRim ? *rim_buckets : -1;  // huge patches: the kd-tree
@@ -106,17 +108,24 @@ void OccupancyUpdater::index_patches(const ScanWindow& window, const std::vector
   const double hi = static_cast<double>((window.width >> kBlockBits) + 1 + bucket_rim_);
   std::int32_t a_min = std::numeric_limits<std::int32_t>::max(), a_max = std::numeric_limits<std::int32_t>::min();
   std::int32_t b_min = a_min, b_max = a_max;
-  patch_bucket_.resize(patches.size());
-  for (std::size_t k = 0; k < patches.size(); ++k) {
-    const std::optional<std::int32_t> fa = floor_to<std::int32_t>((patches[k].center.x() - x0) / bucket);
-    const std::optional<std::int32_t> fb = floor_to<std::int32_t>((patches[k].center.y() - y0) / bucket);
-    patch_bucket_[k] = {std::numeric_limits<std::int32_t>::min(), 0};
+  // The candidates come from the model's k-d tree: every centre in the buckets [lo, hi)² lies within
+  // the square's half diagonal (and a bucket to spare) of its centre. In index order, as a pass over
+  // all patches found them.
+  const double mid = 0.5 * (lo + hi) * bucket;
+  const double radius = (0.5 * (hi - lo) * std::sqrt(2.0) + 1.0) * bucket;
+  std::vector<int> near = ground.within(x0 + mid, y0 + mid, radius);
+  std::sort(near.begin(), near.end());
+  patch_bucket_.clear();
+  for (const int k : near) {
+    const GroundPatch& patch = patches[static_cast<std::size_t>(k)];
+    const std::optional<std::int32_t> fa = floor_to<std::int32_t>((patch.center.x() - x0) / bucket);
+    const std::optional<std::int32_t> fb = floor_to<std::int32_t>((patch.center.y() - y0) / bucket);
     if (!fa || !fb || !(*fa >= lo && *fb >= lo && *fa < hi && *fb < hi)) continue;  // NaN and far ones too
-    patch_bucket_[k] = {*fa, *fb};
-    a_min = std::min(a_min, patch_bucket_[k].first);
-    a_max = std::max(a_max, patch_bucket_[k].first);
-    b_min = std::min(b_min, patch_bucket_[k].second);
-    b_max = std::max(b_max, patch_bucket_[k].second);
+    patch_bucket_.push_back({k, *fa, *fb});
+    a_min = std::min(a_min, *fa);
+    a_max = std::max(a_max, *fa);
+    b_min = std::min(b_min, *fb);
+    b_max = std::max(b_max, *fb);
   }
   if (a_min > a_max) return;  // no patch near the window
   // The grid: the patches' bounding box and rim buckets around it. A block outside is farther than
@@ -128,22 +137,16 @@ void OccupancyUpdater::index_patches(const ScanWindow& window, const std::vector
   const auto rows = static_cast<std::size_t>(bucket_rows_);
   const auto cols = static_cast<std::size_t>(bucket_cols_);
   const std::size_t n_buckets = rows * cols;
-  const auto bucket_index = [&](const std::pair<std::int32_t, std::int32_t>& ab) {
-    return static_cast<std::size_t>(ab.first - bucket_a0_) * cols + static_cast<std::size_t>(ab.second - bucket_b0_);
+  const auto bucket_index = [&](const PatchBucket& pb) {
+    return static_cast<std::size_t>(pb.a - bucket_a0_) * cols + static_cast<std::size_t>(pb.b - bucket_b0_);
   };
   // Counting sort of the candidates by bucket, in index order within a bucket.
   bucket_begin_.assign(n_buckets + 1, 0);
-  for (std::size_t k = 0; k < patches.size(); ++k) {
-    if (patch_bucket_[k].first != std::numeric_limits<std::int32_t>::min()) ++bucket_begin_[bucket_index(patch_bucket_[k]) + 1];
-  }
+  for (const PatchBucket& pb : patch_bucket_) ++bucket_begin_[bucket_index(pb) + 1];
   for (std::size_t b = 0; b < n_buckets; ++b) bucket_begin_[b + 1] += bucket_begin_[b];
   bucket_patches_.resize(bucket_begin_[n_buckets]);
   bucket_fill_.assign(bucket_begin_.begin(), bucket_begin_.end() - 1);
-  for (std::size_t k = 0; k < patches.size(); ++k) {
-    if (patch_bucket_[k].first != std::numeric_limits<std::int32_t>::min()) {
-      bucket_patches_[bucket_fill_[bucket_index(patch_bucket_[k])]++] = static_cast<std::int32_t>(k);
-    }
-  }
+  for (const PatchBucket& pb : patch_bucket_) bucket_patches_[bucket_fill_[bucket_index(pb)]++] = pb.patch;
   // Per bucket, the Chebyshev distance (in buckets, at most rim + 1) to the nearest bucket holding a
   // patch, in two passes: the search skips the empty rings, and a block far from every patch costs
   // one read.
@@ -239,7 +242,7 @@ void OccupancyUpdater::find_ground(const ScanHVoxels& scan, const ScanWindow& wi
   }
   const std::size_t blocks_per_side = (static_cast<std::size_t>(window.width) >> kBlockBits) + 1;
   const auto& patches = ground.patches();
-  index_patches(window, patches);
+  index_patches(window, ground);
   ground_z_.resize(scan.cells.size());
   for (std::size_t c = 0; c < scan.cells.size(); ++c) {
     const CellKey& key = scan.cells[c].key;

@@ -78,7 +78,7 @@ class OccupancyUpdater {
   void find_ground(const ScanHVoxels& scan, const ScanWindow& window, const GroundModel& ground,
                    OccupancyUpdateStats& stats);
   /// Buckets of one block each over the window and a rim, holding the patches whose centre is there.
-  void index_patches(const ScanWindow& window, const std::vector<GroundPatch>& patches);
+  void index_patches(const ScanWindow& window, const GroundModel& ground);
   /// The patch nearest to (x, y), the centre of block (bi, bj), from the buckets (ties: the lowest
   /// index); −1 when none lies within the rim, where no patch is within ground_reach of the block.
   [[nodiscard]] std::int32_t nearest_patch(std::int32_t bi, std::int32_t bj, double x, double y,
@@ -104,7 +104,10 @@ class OccupancyUpdater {
   std::vector<std::uint32_t> bucket_begin_;  // per bucket: first entry in bucket_patches_, + end
   std::vector<std::uint32_t> bucket_fill_;
   std::vector<std::int32_t> bucket_patches_;
-  std::vector<std::pair<std::int32_t, std::int32_t>> patch_bucket_;  // per patch: its bucket, INT_MIN: none
+  struct PatchBucket {
+    std::int32_t patch, a, b;
+  };
+  std::vector<PatchBucket> patch_bucket_;  // the patches near the window, by index, with their bucket
   std::vector<std::uint16_t> empty_rings_;   // per bucket: rings to the nearest patch's bucket
 };
 

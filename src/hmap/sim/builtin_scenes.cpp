@@ -4,6 +4,7 @@
 #include <numbers>
 
 #include "hmap/core/error.hpp"
+#include "hmap/sim/city.hpp"
 #include "hmap/sim/composites.hpp"
 
 namespace hmap::sim {
@@ -26,12 +27,13 @@ void add_room_walls(SceneBuilder& b, const Eigen::Vector2d& lo, const Eigen::Vec
 
 }  // namespace
 
-std::vector<std::string> builtin_scene_names() { return {"boxes", "office", "parking"}; }
+std::vector<std::string> builtin_scene_names() { return {"boxes", "city", "office", "parking"}; }
 
 Scene make_scene(std::string_view name) {
   if (name == "boxes") return make_boxes_scene();
   if (name == "office") return make_office_scene();
   if (name == "parking") return make_parking_scene();
+  if (name == "city") return make_city_scene();
   std::string known;
   for (const auto& n : builtin_scene_names()) known += (known.empty() ? "" : ", ") + n;
   throw Error("unknown scene '" + std::string(name) + "'; known scenes: " + known);

@@ -12,7 +12,7 @@
 
 namespace hmap::sim {
 
-/// "boxes", "office", "parking".
+/// "boxes", "city" (make_city_scene at the default CityParams), "office", "parking".
 [[nodiscard]] std::vector<std::string> builtin_scene_names();
 
 /// The built-in scene `name`. Throws hmap::Error listing the known names for any other.

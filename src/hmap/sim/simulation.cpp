@@ -5,6 +5,8 @@
 #include <variant>
 
 #include "hmap/core/error.hpp"
+#include "hmap/core/format.hpp"
+#include "hmap/sim/city.hpp"
 #include "hmap/sim/builtin_scenes.hpp"
 #include "hmap/sim/imu_sim.hpp"
 #include "hmap/sim/sensors.hpp"
@@ -59,6 +61,11 @@ SimulatedScan scan_with(AnySensor& s, const Scene& scene, const Pose& T, double 
 
 /// The scripted path of a scene, for a sensor mounted at `height` above the floor.
 Trajectory path_for(const SimulationSpec& spec, double height) {
+  if (spec.scene == "city") {
+    CarPathParams p;
+    p.sensor_height = height;
+    return car_path(city_car_route(CityParams{}, 1000.0 * spec.route_km, p.turn_radius), p);
+  }
   if (spec.scene == "parking") {
     CarPathParams p;
     p.sensor_height = height;
@@ -82,6 +89,17 @@ Trajectory path_for(const SimulationSpec& spec, double height) {
 
 }  // namespace
 
+void check_city(const SimulationSpec& spec) {
+  if (spec.scene != "city") return;
+  check_route_km(spec.route_km);
+  // The dense sample of a whole town is tens of millions of points, most far from any route.
+  if (spec.truth) throw Error("the city's drive has no truth (truth.ply, truth_seen.ply): set truth = false");
+}
+
+void check_route_km(double route_km) {
+  if (!(route_km >= 0.1 && route_km <= 20.0)) throw Error("--route-km must be in [0.1, 20] km (got " + format("%g", route_km) + ")");
+}
+
 double path_length(const PoseList& poses) {
   double length = 0.0;
   for (std::size_t k = 1; k < poses.size(); ++k) length += (poses[k].translation() - poses[k - 1].translation()).norm();
@@ -93,12 +111,15 @@ double recording_bytes(std::size_t points_done, std::size_t done, std::size_t fr
   return static_cast<double>(points_done) / static_cast<double>(done) * static_cast<double>(frames) * (16.0 + 12.0);
 }
 
-SimulatedRecording simulate(const SimulationSpec& spec, const SimulationProgress& progress) {
-  return simulate(spec, make_scene(spec.scene), progress);
+SimulatedRecording simulate(const SimulationSpec& spec, const SimulationProgress& progress, const FrameSink& sink) {
+  check_city(spec);  // before the town is built
+  return simulate(spec, make_scene(spec.scene), progress, sink);
 }
 
-SimulatedRecording simulate(const SimulationSpec& spec, const Scene& scene, const SimulationProgress& progress) {
+SimulatedRecording simulate(const SimulationSpec& spec, const Scene& scene, const SimulationProgress& progress,
+                            const FrameSink& sink) {
   if (spec.stride == 0) throw Error("--stride must be at least 1");
+  check_city(spec);
   if (!(spec.truth_spacing >= 0.005)) throw Error("--truth-spacing must be at least 0.005 m");
   if (spec.sweep && !is_spinning_lidar(spec.sensor)) {
     throw Error("--sweep needs a spinning lidar (--sensor vlp16, hdl64 or os0-64), not '" + spec.sensor + "'");
@@ -125,11 +146,17 @@ SimulatedRecording simulate(const SimulationSpec& spec, const Scene& scene, cons
     SimulatedScan s = spec.sweep ? std::get<SpinningLidar>(sensor).sweep(scene, T_world_sensor_at, rec.times[k])
                                       : scan_with(sensor, scene, rec.T_world_sensor[k], rec.times[k]);
     rec.points += s.points_sensor.size();
-    rec.scans.push_back(std::move(s.points_sensor));
-    if (spec.sweep) rec.point_times.push_back(std::move(s.time));
-    // What the sensor could see of the scene as it stands at the end (moving objects gone).
-    const SimulatedScan e = scan_with(exact, scene, rec.T_world_sensor[k], t_end);
-    for (const Point3f& p : e.points_sensor) rec.truth_seen.push_back((rec.T_world_sensor[k] * p.cast<double>()).cast<float>());
+    if (sink) {
+      sink(k, s.points_sensor, spec.sweep ? s.time : std::vector<float>{});
+    } else {
+      rec.scans.push_back(std::move(s.points_sensor));
+      if (spec.sweep) rec.point_times.push_back(std::move(s.time));
+    }
+    if (spec.truth) {
+      // What the sensor could see of the scene as it stands at the end (moving objects gone).
+      const SimulatedScan e = scan_with(exact, scene, rec.T_world_sensor[k], t_end);
+      for (const Point3f& p : e.points_sensor) rec.truth_seen.push_back((rec.T_world_sensor[k] * p.cast<double>()).cast<float>());
+    }
     if (progress) progress(k + 1, n, rec.points);
   }
   if (spec.imu_rate > 0.0) {
@@ -146,6 +173,7 @@ SimulatedRecording simulate(const SimulationSpec& spec, const Scene& scene, cons
   OdometryNoiseParams noise;
   noise.seed = spec.seed;
   rec.odometry = noisy_odometry(rec.T_world_sensor, noise);
+  if (!spec.truth) return rec;
   // The dense sample, kept within reach of the path: anchors every 2 m along it, and the reach
   // widened by that spacing so no point near the path is lost between anchors.
   std::vector<Eigen::Vector3d> anchors;

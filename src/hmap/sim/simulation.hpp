@@ -43,6 +43,10 @@ struct SimulationSpec {
   std::size_t frames = 0;          ///< 0: the whole path
   std::size_t stride = 1;          ///< take every stride-th frame of the 10 Hz path
   bool long_route = false;         ///< parking: drive on past the side road (about 313 m)
+  double route_km = 1.0;           ///< [km] city: length of the drive, [0.1, 20] (city_car_route)
+  /// truth_seen, truth_surface and truth_ground; false leaves them empty (and skips the noise-free
+  /// second scan of every frame): a long drive's truth would be gigabytes.
+  bool truth = true;
   std::uint64_t seed = 1;
   double truth_spacing = 0.1;      ///< [m] of the dense surface sample
   double truth_reach = 30.0;       ///< [m] the sample is kept this close to the path
@@ -67,19 +71,31 @@ struct SimulatedRecording {
   std::size_t points = 0;
 };
 
+/// Throws hmap::Error unless route_km (SimulationSpec::route_km) is in [0.1, 20].
+void check_route_km(double route_km);
+/// For spec.scene "city": throws hmap::Error for a route_km out of range or truth asked for.
+void check_city(const SimulationSpec& spec);
+
 /// Length of the path through the poses' positions [m].
 [[nodiscard]] double path_length(const PoseList& poses);
 
 using SimulationProgress = std::function<void(std::size_t, std::size_t, std::size_t)>;
 
+/// Where each frame goes as it is made instead of into SimulatedRecording::scans and point_times:
+/// `sink(k, points_sensor, point_times)` (point_times empty unless spec.sweep), so that a long
+/// drive is written as it is simulated and its scans are never all in memory.
+using FrameSink = std::function<void(std::size_t, const PointCloud&, const std::vector<float>&)>;
+
 /// Runs the simulation in `scene`; `progress(done, total, points)` is called after each frame,
 /// with the points of the frames done so far (after the first: what the whole recording will
-/// weigh). Throws hmap::Error for a spec out of range (stride 0, an unknown sensor, ...).
+/// weigh). With a `sink`, the scans go to it and the recording holds none. Throws hmap::Error for
+/// a spec out of range (stride 0, an unknown sensor, route_km outside [0.1, 20], ...).
 [[nodiscard]] SimulatedRecording simulate(const SimulationSpec& spec, const Scene& scene,
-                                          const SimulationProgress& progress = {});
+                                          const SimulationProgress& progress = {}, const FrameSink& sink = {});
 
 /// The same in the built-in scene spec.scene (make_scene).
-[[nodiscard]] SimulatedRecording simulate(const SimulationSpec& spec, const SimulationProgress& progress = {});
+[[nodiscard]] SimulatedRecording simulate(const SimulationSpec& spec, const SimulationProgress& progress = {},
+                                          const FrameSink& sink = {});
 
 /// The bytes a recording of `frames` frames will take on disk and in memory, from the points of
 /// its first `done` frames: each point a 16-byte KITTI record and a 12-byte truth_seen.ply vertex (the
