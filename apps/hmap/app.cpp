@@ -21,6 +21,7 @@ void configure_app(CLI::App& app) {
          "before it is allocated, and the maps of map, slam and compare are checked after every scan (default 2048)")
       ->check(CLI::Range(std::size_t{4}, std::size_t{1} << 24));
   add_map_command(app);
+  add_merge_command(app);
   add_info_command(app);
   add_export_command(app);
   add_bench_command(app);

@@ -169,6 +169,7 @@ using Clock = std::chrono::steady_clock;
 void configure_app(CLI::App& app);
 
 void add_map_command(CLI::App& app);
+void add_merge_command(CLI::App& app);
 void add_info_command(CLI::App& app);
 void add_export_command(CLI::App& app);
 void add_bench_command(CLI::App& app);

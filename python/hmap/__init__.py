@@ -23,12 +23,13 @@ for a file), both ``ValueError`` subclasses carrying the library's one-line mess
 """
 
 from . import _hmap
-from ._hmap import Error, Grid2D, HybridMapper, InputError, Map, Mapper, Params, params_for_scan
+from ._hmap import (Error, Grid2D, HybridMapper, InputError, Map, Mapper, Params, align_maps, merge_maps,
+                    params_for_scan)
 from . import eval, io, pvox, render, sim, slam
 
 # Not "eval": `from hmap import *` would hide the builtin eval(); use hmap.eval.
-__all__ = ["Error", "InputError", "Params", "params_for_scan", "Mapper", "HybridMapper", "Map", "Grid2D", "io",
-           "pvox", "render", "sim", "slam"]
+__all__ = ["Error", "InputError", "Params", "params_for_scan", "Mapper", "HybridMapper", "Map", "Grid2D", "merge_maps",
+           "align_maps", "io", "pvox", "render", "sim", "slam"]
 
 _SECTIONS = sorted({name.split(".", 1)[0] for name in Params.names()})
 

@@ -68,6 +68,14 @@ def params_for_scan(first_scan: npt.NDArray[np.floating], preset: Optional[str] 
                     cell_size: Optional[float] = None, min_range: Optional[float] = None,
                     max_range: Optional[float] = None) -> dict[str, Any]: ...
 
+def merge_maps(a: Map, b: Map, *, shift: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)) -> Map:
+    """`hmap merge`: `a` with `b` merged in, `b` first moved by shift = (x, y, z, yaw [rad])."""
+    ...
+def align_maps(a: Map, b: Map, *, guess: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0),
+               search: float = 5.0, search_yaw: float = 0.5) -> dict[str, Any]:
+    """`hmap merge --align`: b's frame in a's as {'shift': (x, y, z, yaw), 'score', ...}."""
+    ...
+
 class io:
     @staticmethod
     def read_cloud(path: _Path) -> npt.NDArray[np.float32]: ...

@@ -7,6 +7,7 @@
 #include <pybind11/stl/filesystem.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -38,6 +39,9 @@
 #include "hmap/occupancy/hybrid_mapper.hpp"
 #include "hmap/render/render.hpp"
 #include "hmap/slam/hmap_slam.hpp"
+#include "hmap/maps/map_merge.hpp"
+#include "hmap/occupancy/layers_merge.hpp"
+#include "hmap/slam/map_align.hpp"
 #include "arrays.hpp"
 
 namespace py = pybind11;
@@ -670,6 +674,77 @@ void write_png_array(const std::filesystem::path& path, const py::handle& image)
 
 }  // namespace
 
+/// Maps of two sessions made one (`hmap merge`): the HMAP, and the 2D grid and ground patches
+/// when both maps hold them.
+Map merge_maps(const Map& a, const Map& b, const std::array<double, 4>& shift_xyzyaw) {
+  const PlanarShift shift{shift_xyzyaw[0], shift_xyzyaw[1], shift_xyzyaw[2], shift_xyzyaw[3]};
+  const bool moved = shift.x != 0.0 || shift.y != 0.0 || shift.z != 0.0 || shift.yaw != 0.0;
+  return a.read([&](const HMap& map_a, const OccupancyGrid* grid_a, std::span<const GroundPatch> ground_a) {
+    return b.read([&](const HMap& map_b, const OccupancyGrid* grid_b, std::span<const GroundPatch> ground_b) {
+      py::gil_scoped_release release;
+      MapFile out{HMap(map_a.params()), {}, std::nullopt};
+      merge_map(out.map, map_a);  // into an empty map: an exact copy
+      if (moved) {
+        merge_map(out.map, shifted_map(map_b, shift));
+      } else {
+        merge_map(out.map, map_b);
+      }
+      if (grid_a != nullptr && grid_b != nullptr) {
+        out.grid.emplace(grid_a->cell_size(), probability(grid_a->clamp_min_log_odds()), probability(grid_a->clamp_max_log_odds()));
+        add_evidence(*out.grid, *grid_a);
+        if (moved) {
+          add_evidence(*out.grid, shifted_grid(*grid_b, shift));
+        } else {
+          add_evidence(*out.grid, *grid_b);
+        }
+        out.ground.assign(ground_a.begin(), ground_a.end());
+        if (moved) {
+          join_ground(out.ground, shifted_ground(ground_b, shift));
+        } else {
+          join_ground(out.ground, ground_b);
+        }
+      }
+      return Map(std::move(out));
+    });
+  });
+}
+
+py::dict align_maps_dict(const Map& a, const Map& b, const std::array<double, 4>& guess, double search, double search_yaw) {
+  const slam::MapAlignResult r = a.read([&](const HMap& map_a, const OccupancyGrid*, std::span<const GroundPatch>) {
+    return b.read([&](const HMap& map_b, const OccupancyGrid*, std::span<const GroundPatch>) {
+      py::gil_scoped_release release;
+      slam::MapAlignOptions options;
+      options.guess = {guess[0], guess[1], guess[2], guess[3]};
+      options.search_translation = search;
+      options.search_rotation = search_yaw;
+      return slam::align_maps(map_a, map_b, options);
+    });
+  });
+  py::dict d;
+  d["shift"] = py::make_tuple(r.shift.x, r.shift.y, r.shift.z, r.shift.yaw);
+  d["score"] = r.match.score;
+  d["converged"] = r.match.converged;
+  d["degenerate"] = r.match.degenerate;
+  d["hvoxels_used"] = r.match.hvoxels_used;
+  d["columns_used"] = r.columns_used;
+  d["floor_pairs"] = r.floor_pairs;
+  return d;
+}
+
+void bind_merge(py::module_& m) {
+  m.def("merge_maps", &merge_maps, py::arg("a"), py::arg("b"), py::kw_only(),
+        py::arg("shift") = std::array<double, 4>{0.0, 0.0, 0.0, 0.0},
+        "`hmap merge`: a new Map, `a` with `b` merged in (III-D per column; a column only one map holds is copied "
+        "exactly), `b` first moved by shift = (x, y, z [m], yaw [rad]), its frame in `a`'s. The 2D grids' "
+        "log-odds add and the ground patches join when both maps hold them. Same cell size required (hmap.Error).");
+  m.def("align_maps", &align_maps_dict, py::arg("a"), py::arg("b"), py::kw_only(),
+        py::arg("guess") = std::array<double, 4>{0.0, 0.0, 0.0, 0.0}, py::arg("search") = 5.0, py::arg("search_yaw") = 0.5,
+        "`hmap merge --align`: registers `b` onto `a` (the scan matcher over the overlapping columns after a coarse "
+        "search of +-search [m] and +-search_yaw [rad] around guess = (x, y, z, yaw)). Returns {'shift': (x, y, z, "
+        "yaw), 'score', 'converged', 'degenerate', 'hvoxels_used', 'columns_used', 'floor_pairs'}; pass the shift "
+        "to merge_maps.");
+}
+
 PYBIND11_MODULE(_hmap, m) {
   PYBIND11_NUMPY_DTYPE(HVoxel, z_min, z_max, count, density);  // a column as a structured array
   PYBIND11_NUMPY_DTYPE(CellHVoxel, i, j, z_min, z_max, count, density);
@@ -936,6 +1011,7 @@ PYBIND11_MODULE(_hmap, m) {
   bind_sources(io);
   bind_sim(m);
   bind_pvox(m);
+  bind_merge(m);
 }
 
 }  // namespace hmap::python

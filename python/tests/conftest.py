@@ -60,3 +60,11 @@ def params():
 @pytest.fixture
 def scene():
     return scene_points()
+
+
+def cli_or_skip():
+    """The built `hmap` tool (HMAP_BIN, set by CTest), or a skip when it is not built."""
+    cli = pathlib.Path(os.environ.get("HMAP_BIN", ""))
+    if not cli.is_file():
+        pytest.skip("the hmap tool is not built (HMAP_BIN)")
+    return cli

@@ -20,6 +20,8 @@
 #include "common/test_data.hpp"
 #include "hmap/core/format.hpp"
 #include "hmap/io/hmap_file.hpp"
+#include "hmap/io/poses.hpp"
+#include "hmap/maps/map_merge.hpp"
 #include "hmap/io/pcd.hpp"
 
 namespace hmap {
@@ -698,6 +700,82 @@ TEST_F(CliTest, MapContinuedFromItsFileEqualsOneRun) {
   const CmdResult missing = run("map" + second + " --poses " + path("p2.txt") + " --continue " + path("nope.hmap") + " --out " + path("bad.hmap"));
   EXPECT_EQ(missing.code, 2);
   EXPECT_NE(missing.out.find("nope.hmap"), std::string::npos) << missing.out;
+}
+
+}  // namespace
+}  // namespace hmap
+
+namespace hmap {
+namespace {
+
+// hmap merge (issue 22): two sessions' maps into one, the second registered first with --align.
+TEST_F(CliTest, MergeRegistersAndUnitesTwoSessions) {
+  ASSERT_EQ(run("simulate --scene parking --sensor vlp16 --frames 8 --seed 4 --out " + path("seq")).code, 0);
+  const PoseList truth = read_poses(dir_ / "seq" / "poses.txt");
+  ASSERT_EQ(truth.size(), 8U);
+  // The second session's poses in a frame 8° and (0.7, -0.4, 0.1) m away.
+  Pose S = Pose::Identity();
+  S.linear() = Eigen::AngleAxisd(8.0 * std::numbers::pi / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  S.translation() = Eigen::Vector3d(0.7, -0.4, 0.1);
+  PoseList first_poses(truth.begin(), truth.begin() + 5), second_poses;
+  std::string first, second;
+  for (int k = 0; k < 8; ++k) {
+    const std::string scan = " " + (dir_ / "seq" / "velodyne" / format("%06d.bin", k)).string();
+    if (k < 5) first += scan;
+    if (k >= 3) {
+      second += scan;
+      second_poses.push_back(S * truth[static_cast<std::size_t>(k)]);
+    }
+  }
+  write_poses_kitti(dir_ / "p1.txt", first_poses);
+  write_poses_kitti(dir_ / "p2.txt", second_poses);
+  ASSERT_EQ(run("map" + first + " --poses " + path("p1.txt") + " --out " + path("a.hmap")).code, 0);
+  ASSERT_EQ(run("map" + second + " --poses " + path("p2.txt") + " --out " + path("b.hmap")).code, 0);
+
+  const CmdResult r = run("merge " + path("a.hmap") + " " + path("b.hmap") + " --align --out " + path("m.hmap"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  // "x X m, y Y m, z Z m, yaw W deg": S⁻¹.
+  double x = 0, y = 0, z = 0, yaw = 0;
+  const auto at = r.out.find("first's: x ");
+  ASSERT_NE(at, std::string::npos) << r.out;
+  ASSERT_EQ(std::sscanf(r.out.c_str() + at, "first's: x %lf m, y %lf m, z %lf m, yaw %lf deg", &x, &y, &z, &yaw), 4) << r.out;
+  const Pose want = S.inverse();
+  EXPECT_NEAR(x, want.translation().x(), 0.1) << r.out;
+  EXPECT_NEAR(y, want.translation().y(), 0.1) << r.out;
+  EXPECT_NEAR(z, want.translation().z(), 0.05) << r.out;
+  EXPECT_NEAR(yaw, -8.0, 0.5) << r.out;
+  // The file holds a's map with b's moved by that shift merged in, its grid and ground joined.
+  const MapFile m = load_map_file(dir_ / "m.hmap");
+  HMap expected = load_hmap(dir_ / "a.hmap");
+  merge_map(expected, shifted_map(load_hmap(dir_ / "b.hmap"), {x, y, z, yaw * std::numbers::pi / 180.0}));
+  EXPECT_NEAR(static_cast<double>(m.map.stats().hvoxels), static_cast<double>(expected.stats().hvoxels),
+              0.01 * static_cast<double>(expected.stats().hvoxels));  // the printed shift is rounded
+  ASSERT_TRUE(m.grid.has_value());
+  EXPECT_GE(m.grid->known_cells(), load_map_file(dir_ / "a.hmap").grid->known_cells());
+  EXPECT_GT(m.ground.size(), load_map_file(dir_ / "a.hmap").ground.size());
+
+  // A known shift without --align is applied as given: the same file as merging by hand.
+  const CmdResult k = run("merge " + path("a.hmap") + " " + path("a.hmap") + " --shift 0.5 0 0 0 --out " + path("k.hmap"));
+  ASSERT_EQ(k.code, 0) << k.out;
+  HMap twice = load_hmap(dir_ / "a.hmap");
+  merge_map(twice, shifted_map(load_hmap(dir_ / "a.hmap"), {0.5, 0.0, 0.0, 0.0}));
+  EXPECT_EQ(load_hmap(dir_ / "k.hmap").stats().hvoxels, twice.stats().hvoxels);
+
+  // Bad input: one line, exit 2, nothing written.
+  ASSERT_EQ(run("map" + second + " --poses " + path("p2.txt") + " --cell 0.2 --out " + path("fine.hmap")).code, 0);
+  const std::string both = "merge " + path("a.hmap") + " ";
+  for (const std::string& bad : {both + path("fine.hmap") + " --out " + path("bad.hmap"),
+                                 both + path("nope.hmap") + " --out " + path("bad.hmap"),
+                                 both + path("b.hmap") + " --shift 1 2 3 --out " + path("bad.hmap"),
+                                 both + path("b.hmap") + " --shift 1 2 nan 0 --out " + path("bad.hmap"),
+                                 both + path("b.hmap") + " --align --search 50 --out " + path("bad.hmap"),
+                                 both + path("b.hmap") + " --out " + path("bad.ply")}) {
+    const CmdResult e = run(bad);
+    EXPECT_EQ(e.code, 2) << bad << "\n" << e.out;
+    EXPECT_EQ(lines(e.out), 1U) << e.out;
+    EXPECT_FALSE(std::filesystem::exists(dir_ / "bad.hmap")) << bad;
+  }
+  EXPECT_NE(run(both + path("fine.hmap") + " --out " + path("bad.hmap")).out.find("fine.hmap"), std::string::npos);
 }
 
 }  // namespace

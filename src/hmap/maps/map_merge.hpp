@@ -1,0 +1,43 @@
+#pragma once
+// Maps of different sessions made one: one map's HVoxels merged into another's column by column
+// (III-D, as a scan's are), and a map moved rigidly in the plane before it is merged.
+
+#include <cstddef>
+
+#include "hmap/maps/hmap.hpp"
+
+namespace hmap {
+
+/// A rigid motion of a whole map that keeps gravity: a turn by `yaw` about z, then a shift.
+struct PlanarShift {
+  double x = 0.0;    ///< [m]
+  double y = 0.0;    ///< [m]
+  double z = 0.0;    ///< [m]
+  double yaw = 0.0;  ///< [rad]
+};
+
+/// What merge_map did.
+struct MapMergeStats {
+  std::size_t columns_added = 0;   ///< columns of `from` where `into` had none: copied as they are
+  std::size_t columns_merged = 0;  ///< columns both maps hold: united by III-D
+  std::size_t hvoxels_before = 0;  ///< of `into`
+  std::size_t hvoxels_from = 0;    ///< of `from`
+  std::size_t hvoxels_after = 0;   ///< of `into` after the merge
+};
+
+/// Merges every HVoxel of `from` into `into`'s column of the same cell: a column `into` does not
+/// hold is copied exactly; in one both hold, each HVoxel is united with those within `into`'s
+/// map.point_distance_threshold (III-D: extents joined, counts added, density of eq. 1 anew).
+/// What `from`'s free space would have carved out of `into` is not carved: the free space of its
+/// scans is not kept in a map. Throws hmap::Error when the cell sizes differ, or when the result
+/// would pass `budget` (checked per tile of `from`).
+MapMergeStats merge_map(HMap& into, const HMap& from, const MemoryBudget& budget = {});
+
+/// `map` moved by `shift`: each cell of the result takes the column of `map` under its centre
+/// moved back (nearest cell; the picture-rotation rule, so no cell is left empty between two
+/// filled ones and none is filled twice), its HVoxels raised by shift.z. A shift by whole cells
+/// without a turn moves every column exactly. Throws hmap::Error for a shift that is not finite,
+/// that would move cells beyond the key range, or a result beyond `budget`.
+[[nodiscard]] HMap shifted_map(const HMap& map, const PlanarShift& shift, const MemoryBudget& budget = {});
+
+}  // namespace hmap

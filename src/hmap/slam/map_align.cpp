@@ -1,0 +1,134 @@
+#include "hmap/slam/map_align.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "hmap/core/error.hpp"
+#include "hmap/core/format.hpp"
+
+namespace hmap::slam {
+
+namespace {
+
+/// Columns of `moving` farther than this from their centroid are left out (the matcher's window
+/// is dense over ±max_range, and validate() keeps that within 2048 cells).
+constexpr double kMaxReachCells = 1024.0;
+
+/// The lowest surface of a column: its lowest HVoxel's top.
+float floor_of(const ColumnView& c) { return c[0].z_max; }
+
+/// Median of `moving`'s lowest tops minus `reference`'s over the columns that fall on each other
+/// under `shift` (x, y, yaw; z ignored); differences beyond ±2 m (a floor against a table) left out.
+double floor_offset(const HMap& reference, const HMap& moving, const PlanarShift& shift, std::size_t& pairs) {
+  const double c = std::cos(shift.yaw);
+  const double sn = std::sin(shift.yaw);
+  std::vector<double> d;
+  moving.for_each_column([&](const CellKey& key, const ColumnView& column) {
+    const Eigen::Vector2d v = moving.cell_center(key);
+    const ColumnView other = reference.column(c * v.x() - sn * v.y() + shift.x, sn * v.x() + c * v.y() + shift.y);
+    if (other.empty()) return;
+    const double diff = static_cast<double>(floor_of(other)) - static_cast<double>(floor_of(column));
+    if (std::abs(diff) <= 2.0) d.push_back(diff);
+  });
+  pairs = d.size();
+  if (d.empty()) return 0.0;
+  std::nth_element(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2), d.end());
+  return d[d.size() / 2];
+}
+
+}  // namespace
+
+MapAlignResult align_maps(const HMap& reference, const HMap& moving, const MapAlignOptions& options) {
+  if (reference.cell_size() != moving.cell_size()) {
+    throw Error(format("aligning maps: the maps' cells differ (%g m and %g m); build both with the same map.cell_size",
+                       reference.cell_size(), moving.cell_size()));
+  }
+  const PlanarShift& g = options.guess;
+  if (!(std::isfinite(g.x) && std::isfinite(g.y) && std::isfinite(g.z) && std::isfinite(g.yaw))) {
+    throw Error("aligning maps: the guess must be finite");
+  }
+  const double s = reference.cell_size();
+  const MapStats ref_stats = reference.stats();
+  if (ref_stats.hvoxels == 0 || moving.empty()) throw Error("aligning maps: a map is empty");
+
+  // The columns of `moving` that land on `reference`'s area at the guess (widened by the search).
+  const double margin = options.search_translation + s;
+  Eigen::AlignedBox2d area(ref_stats.bounds.min().head<2>() - Eigen::Vector2d::Constant(margin),
+                           ref_stats.bounds.max().head<2>() + Eigen::Vector2d::Constant(margin));
+  const double c = std::cos(g.yaw);
+  const double sn = std::sin(g.yaw);
+  std::vector<CellKey> keys;
+  Eigen::Vector2d sum = Eigen::Vector2d::Zero();
+  moving.for_each_column([&](const CellKey& key, const ColumnView&) {
+    const Eigen::Vector2d v = moving.cell_center(key);
+    if (!area.contains(Eigen::Vector2d(c * v.x() - sn * v.y() + g.x, sn * v.x() + c * v.y() + g.y))) return;
+    keys.push_back(key);
+    sum += v;
+  });
+  if (keys.empty()) throw Error("aligning maps: at the guess, no column of the second map lies over the first");
+  // The scan is centred on the columns' centroid cell o (whole cells, so the cell centres stay
+  // exact): a point v of `moving` is v' = v - o in the scan.
+  const auto o = moving.key_of(sum.x() / static_cast<double>(keys.size()), sum.y() / static_cast<double>(keys.size())).value();
+  std::sort(keys.begin(), keys.end(), [](const CellKey& a, const CellKey& b) { return a.i != b.i ? a.i < b.i : a.j < b.j; });
+
+  MapAlignResult result;
+  const double z0 = floor_offset(reference, moving, g, result.floor_pairs);
+  const auto build_scan = [&](double dz) {
+    ScanHVoxels scan;
+    double reach = 0.0;
+    for (const CellKey& key : keys) {
+      const double di = key.i - o.i;
+      const double dj = key.j - o.j;
+      if (std::max(std::abs(di), std::abs(dj)) > kMaxReachCells) continue;
+      reach = std::max(reach, std::hypot(di + 0.5, dj + 0.5) * s);
+      const ColumnView column = moving.column(key);
+      ScanCell cell{{key.i - o.i, key.j - o.j}, static_cast<std::uint32_t>(scan.hvoxels.size()), static_cast<std::uint32_t>(column.size())};
+      for (HVoxel v : column) {
+        v.z_min += static_cast<float>(dz);
+        v.z_max += static_cast<float>(dz);
+        scan.hvoxels.push_back(v);
+      }
+      scan.cells.push_back(cell);
+    }
+    return std::pair{std::move(scan), reach};
+  };
+  auto [scan, reach] = build_scan(z0);
+  result.columns_used = scan.cells.size();
+
+  Params params = reference.params();
+  params.map.max_range = std::max(params.map.min_range + s, reach + s);
+  params.slam.coarse_translation = options.search_translation;
+  params.slam.coarse_rotation = options.search_rotation;
+  if (params.slam.max_hvoxels == 0) params.slam.max_hvoxels = 50000;
+  if (params.slam.coarse_trigger_ratio <= 0.0) params.slam.coarse_trigger_ratio = 0.85;
+  try {
+    validate(params);
+  } catch (const Error& e) {
+    throw Error(std::string("aligning maps: ") + e.what());
+  }
+  ScanMatcher matcher(params);
+  // The centred scan at the guess: its origin o sits at R(yaw) o + t.
+  const Eigen::Vector2d os((o.i) * s, (o.j) * s);
+  const auto centred = [&](const PlanarShift& shift) {
+    const double cc = std::cos(shift.yaw), ss = std::sin(shift.yaw);
+    return PlanarPose{shift.x + cc * os.x() - ss * os.y(), shift.y + ss * os.x() + cc * os.y(), shift.yaw};
+  };
+  const auto uncentred = [&](const PlanarPose& p, double z) {
+    const double cc = std::cos(p.yaw), ss = std::sin(p.yaw);
+    return PlanarShift{p.x - (cc * os.x() - ss * os.y()), p.y - (ss * os.x() + cc * os.y()), z, p.yaw};
+  };
+  result.match = matcher.match(scan, reference, centred(g), CoarseSearch::kAlways);
+  PlanarShift shift = uncentred(result.match.pose, z0);
+  // z again where the columns now fall, and the planar match refined from there.
+  const double z1 = floor_offset(reference, moving, shift, result.floor_pairs);
+  if (std::abs(z1 - z0) > 1e-6) {
+    scan = build_scan(z1).first;
+    result.match = matcher.match(scan, reference, result.match.pose);
+    shift = uncentred(result.match.pose, z1);
+  }
+  result.shift = shift;
+  return result;
+}
+
+}  // namespace hmap::slam

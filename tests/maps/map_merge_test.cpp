@@ -1,0 +1,228 @@
+#include "hmap/maps/map_merge.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+#include <random>
+
+#include "hmap/core/error.hpp"
+#include "hmap/maps/mapper.hpp"
+
+namespace hmap {
+namespace {
+
+Params params(double cell = 0.25) {
+  Params p = outdoor_preset();
+  p.map.cell_size = cell;
+  return p;
+}
+
+HVoxel hv(float lo, float hi, float count, const MapParams& p) {
+  HVoxel v{lo, hi, count, 0.0F};
+  update_density(v, p);
+  return v;
+}
+
+void put(HMap& m, CellKey key, std::initializer_list<HVoxel> vs) {
+  TileColumn c = m.column_for_update(key);
+  for (const HVoxel& v : vs) c.push_back(v);
+}
+
+/// Every column of `a` equals `b`'s at the same cell, and both hold as many.
+void expect_same(const HMap& a, const HMap& b) {
+  std::size_t n = 0;
+  a.for_each_column([&](const CellKey& k, const ColumnView& c) {
+    ++n;
+    const ColumnView o = b.column(k);
+    ASSERT_EQ(o.size(), c.size()) << k.i << "," << k.j;
+    for (std::size_t q = 0; q < c.size(); ++q) EXPECT_EQ(o[q], c[q]) << k.i << "," << k.j;
+  });
+  EXPECT_EQ(n, b.stats().cells);
+}
+
+/// A random map: `cells` columns in a square of `side` cells, 1-3 disjoint HVoxels each.
+HMap random_map(const Params& p, int cells, int side, std::uint32_t seed) {
+  HMap m(p);
+  std::mt19937 rng(seed);
+  std::uniform_int_distribution<int> cell(-side / 2, side / 2);
+  std::uniform_int_distribution<int> layers(1, 3);
+  for (int k = 0; k < cells; ++k) {
+    const CellKey key{cell(rng), cell(rng)};
+    if (!m.column(key).empty()) continue;
+    TileColumn c = m.column_for_update(key);
+    float z = -1.0F + 0.1F * static_cast<float>(rng() % 10);
+    for (int l = layers(rng); l > 0; --l) {
+      c.push_back(hv(z, z + 0.3F, 10.0F, p.map));
+      z += 1.5F;
+    }
+  }
+  return m;
+}
+
+TEST(MapMerge, DisjointMapsUniteExactlyAndOverlapsMergeAsIIID) {
+  const Params p = params();
+  HMap a(p), b(p);
+  put(a, {0, 0}, {hv(0.0F, 1.0F, 10.0F, p.map)});
+  put(a, {5, -3}, {hv(2.0F, 2.5F, 4.0F, p.map)});
+  put(b, {7, 7}, {hv(-1.0F, 0.0F, 3.0F, p.map), hv(3.0F, 4.0F, 6.0F, p.map)});
+  // Within the 0.4 m gap of a's [0, 1]: united to [0, 2], 10 + 5 points, density anew.
+  put(b, {0, 0}, {hv(1.3F, 2.0F, 5.0F, p.map)});
+  const MapMergeStats st = merge_map(a, b);
+  EXPECT_EQ(st.columns_added, 1U);
+  EXPECT_EQ(st.columns_merged, 1U);
+  EXPECT_EQ(st.hvoxels_before, 2U);
+  EXPECT_EQ(st.hvoxels_from, 3U);
+  EXPECT_EQ(st.hvoxels_after, 4U);
+  const ColumnView c = a.column(CellKey{0, 0});
+  ASSERT_EQ(c.size(), 1U);
+  EXPECT_EQ(c[0], hv(0.0F, 2.0F, 15.0F, p.map));
+  ASSERT_EQ(a.column(CellKey{7, 7}).size(), 2U);
+  EXPECT_EQ(a.column(CellKey{7, 7})[1], hv(3.0F, 4.0F, 6.0F, p.map));
+  EXPECT_EQ(a.column(CellKey{5, -3})[0], hv(2.0F, 2.5F, 4.0F, p.map));
+  // Farther than the gap: kept apart.
+  HMap d(p);
+  put(d, {0, 0}, {hv(2.5F, 3.0F, 2.0F, p.map)});
+  merge_map(a, d);
+  EXPECT_EQ(a.column(CellKey{0, 0}).size(), 2U);
+}
+
+TEST(MapMerge, IntoAnEmptyMapIsACopyAndEmptyChangesNothing) {
+  const Params p = params();
+  const HMap src = random_map(p, 400, 60, 3);
+  HMap empty(p);
+  merge_map(empty, src);
+  expect_same(src, empty);
+  HMap same = random_map(p, 400, 60, 3);
+  const MapMergeStats st = merge_map(same, HMap(p));
+  EXPECT_EQ(st.hvoxels_from, 0U);
+  expect_same(src, same);
+}
+
+TEST(MapMerge, RefusesOtherCellSizesAndABudgetItPasses) {
+  HMap a(params(0.25));
+  const HMap b = random_map(params(0.2), 50, 20, 1);
+  EXPECT_THROW(merge_map(a, b), Error);
+  const HMap big = random_map(params(), 2000, 400, 2);
+  MemoryBudget tiny;
+  tiny.bytes = 1024;
+  EXPECT_THROW(merge_map(a, big, tiny), Error);
+}
+
+TEST(MapShift, WholeCellsAndQuarterTurnsMoveEveryColumnExactly) {
+  const Params p = params();
+  const HMap m = random_map(p, 300, 50, 7);
+  const double s = p.map.cell_size;
+  const HMap moved = shifted_map(m, {3 * s, -5 * s, 0.5, 0.0});
+  const HMap turned = shifted_map(m, {0.0, 0.0, 0.0, std::numbers::pi / 2});
+  EXPECT_EQ(moved.stats().hvoxels, m.stats().hvoxels);
+  EXPECT_EQ(turned.stats().hvoxels, m.stats().hvoxels);
+  m.for_each_column([&](const CellKey& k, const ColumnView& c) {
+    const ColumnView a = moved.column(CellKey{k.i + 3, k.j - 5});
+    ASSERT_EQ(a.size(), c.size());
+    for (std::size_t q = 0; q < c.size(); ++q) {
+      EXPECT_FLOAT_EQ(a[q].z_min, c[q].z_min + 0.5F);
+      EXPECT_FLOAT_EQ(a[q].z_max, c[q].z_max + 0.5F);
+      EXPECT_EQ(a[q].count, c[q].count);
+    }
+    // (i + ½, j + ½) turned by 90° is (−j − ½, i + ½): the cell (−j − 1, i).
+    const ColumnView t = turned.column(CellKey{-k.j - 1, k.i});
+    ASSERT_EQ(t.size(), c.size());
+    EXPECT_EQ(t[0], c[0]);
+  });
+}
+
+TEST(MapShift, ATurnFillsEachCellFromUnderItsCentreMovedBack) {
+  // A brute-force twin of the rule: every cell of a box around the result takes the column under
+  // its centre moved back, and nothing else is filled.
+  const Params p = params();
+  const HMap m = random_map(p, 500, 40, 11);
+  const PlanarShift shift{1.37, -0.61, 0.0, 0.5236};
+  const HMap r = shifted_map(m, shift);
+  const double s = p.map.cell_size;
+  const double c = std::cos(shift.yaw), sn = std::sin(shift.yaw);
+  std::size_t filled = 0;
+  for (int i = -60; i <= 60; ++i) {
+    for (int j = -60; j <= 60; ++j) {
+      const double bx = (i + 0.5) * s - shift.x, by = (j + 0.5) * s - shift.y;
+      const ColumnView want = m.column(c * bx + sn * by, -sn * bx + c * by);
+      const ColumnView got = r.column(CellKey{i, j});
+      ASSERT_EQ(got.size(), want.size()) << i << "," << j;
+      if (!want.empty()) {
+        EXPECT_EQ(got[0], want[0]);
+        ++filled;
+      }
+    }
+  }
+  EXPECT_EQ(filled, r.stats().cells);
+  // A turn keeps the area: as many columns within a few percent.
+  EXPECT_NEAR(static_cast<double>(filled), static_cast<double>(m.stats().cells), 0.05 * static_cast<double>(m.stats().cells));
+  EXPECT_THROW((void)shifted_map(m, {NAN, 0.0, 0.0, 0.0}), Error);
+  EXPECT_THROW((void)shifted_map(m, {1e12, 0.0, 0.0, 0.0}), Error);
+}
+
+/// Points of a wall segment along y at x = wx and a floor patch around (fx, 0), seen from the
+/// sensor at `origin` (identity rotation), in its frame.
+PointCloud scene_points(const Eigen::Vector3d& origin, double wx, std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  PointCloud pts;
+  for (int k = 0; k < 4000; ++k) {
+    const Eigen::Vector3d w(wx, origin.y() - 4.0 + 8.0 * u(rng), 2.5 * u(rng));
+    const Eigen::Vector3d f(origin.x() - 5.0 + 10.0 * u(rng), origin.y() - 5.0 + 10.0 * u(rng), 0.0);
+    pts.push_back((w - origin).cast<float>());
+    pts.push_back((f - origin).cast<float>());
+  }
+  return pts;
+}
+
+// Sessions farther apart than twice the range: merging their maps gives the map of one run over
+// both, exactly. Where they overlap, one run's later scans carve what their free space crosses in
+// the earlier ones' HVoxels; a merge cannot (the free space is not kept), so it holds every
+// column of the one run's map and at least as many HVoxels.
+TEST(MapMerge, SessionsApartMergeToTheOneRunMap) {
+  Params p = params(0.2);
+  p.map.max_range = 10.0;
+  Mapper one(p), first(p), second(p);
+  const auto scan = [&](Mapper& m, double x, std::uint32_t seed) {
+    const Eigen::Vector3d o(x, 0.0, 1.5);
+    Pose T = Pose::Identity();
+    T.translation() = o;
+    m.integrate(scene_points(o, x + 6.0, seed), T);
+  };
+  for (int k = 0; k < 3; ++k) {
+    scan(one, -30.0 + k, 1 + k);
+    scan(first, -30.0 + k, 1 + k);
+  }
+  for (int k = 0; k < 3; ++k) {
+    scan(one, 30.0 + k, 10 + k);
+    scan(second, 30.0 + k, 10 + k);
+  }
+  merge_map(first.map(), second.map());
+  expect_same(one.map(), first.map());
+
+  // Overlapping: the second session stands where the first saw its wall from.
+  Mapper whole(p), a(p), b(p);
+  scan(whole, 0.0, 1);
+  scan(a, 0.0, 1);
+  scan(whole, 3.0, 2);
+  scan(b, 3.0, 2);
+  merge_map(a.map(), b.map());
+  // Every HVoxel of the one run lies inside one of the merge's: carving only takes away (and may
+  // split one HVoxel in two, so the counts are not ordered).
+  std::size_t checked = 0;
+  whole.map().for_each_column([&](const CellKey& k, const ColumnView& c) {
+    const ColumnView m = a.map().column(k);
+    for (const HVoxel& v : c) {
+      bool inside = false;
+      for (const HVoxel& u : m) inside = inside || (u.z_min <= v.z_min + 1e-6F && u.z_max >= v.z_max - 1e-6F);
+      EXPECT_TRUE(inside) << k.i << "," << k.j << " [" << v.z_min << ", " << v.z_max << "]";
+      ++checked;
+    }
+  });
+  EXPECT_GT(checked, 1000U);
+  EXPECT_GT(whole.map().stats().cells, one.map().stats().cells / 4);
+}
+
+}  // namespace
+}  // namespace hmap
