@@ -32,7 +32,7 @@ TEST(LayersMerge, GridQuarterTurnMovesEveryCell) {
   const OccupancyGrid t = shifted_grid(g, {1.0, 0.0, 0.0, std::numbers::pi / 2});
   EXPECT_EQ(t.known_cells(), g.known_cells());
   // (i + ½, j + ½)·0.5 turned by 90° then 1 m (2 cells) along x: cell (−j − 1 + 2, i).
-  for (int i = -5; i < 7; ++i) EXPECT_NEAR(*t.log_odds_at({-(2 * i + 1) - 1 + 2, i}), i * 0.1F, 1e-7) << i;
+  for (int i = -5; i < 7; ++i) EXPECT_NEAR(*t.log_odds_at({-(2 * i + 1) - 1 + 2, i}), static_cast<float>(i) * 0.1F, 1e-7) << i;
   EXPECT_THROW((void)shifted_grid(g, {INFINITY, 0.0, 0.0, 0.0}), Error);
 }
 

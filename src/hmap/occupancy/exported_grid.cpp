@@ -32,7 +32,7 @@ OccupancyGrid copy_of(const OccupancyGrid& g) {
 ExportedGrid derive(const HMap& map, const ExportGridParams& p) {
   const MapStats st = map.stats();
   Params params = map.params();
-  ExportedGrid out{empty_grid(map)};
+  ExportedGrid out{empty_grid(map), {}, {}};
   out.derived = true;
   if (p.ground_hint) {
     out.hint = *p.ground_hint;
@@ -72,7 +72,7 @@ ExportedGrid export_grid(const HMap& map, std::span<const GroundPatch> ground, c
   if (p.ground_hint && !p.ground_hint->allFinite()) throw Error("the ground hint is not a finite point");
   if (map.stats().hvoxels == 0) throw Error("the map is empty");
   if (kept == nullptr || kept->known_cells() == 0 || p.rederive) return derive(map, p);
-  ExportedGrid out{empty_grid(map)};
+  ExportedGrid out{empty_grid(map), {}, {}};
   out.ground.assign(ground.begin(), ground.end());
   const Params& params = map.params();
   std::optional<OccupancyGrid> judged;
