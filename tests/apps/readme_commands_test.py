@@ -29,6 +29,7 @@ import time
 
 # Command prefix (after whitespace is normalised) -> arguments appended by the test, for the long jobs.
 SHORTENED = {
+    'hmap simulate --scene city': '--frames 20',
     'hmap map --bag out/bag/balm_os0.bag': '--scans 10',
     'hmap slam --kitti ../shared/data/kitti_hdl64_seq16': '--scans 4',
     'hmap compare --kitti ../shared/data/balm_os0': '--scans 4',
