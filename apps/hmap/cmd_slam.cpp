@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <numbers>
 
 #include "cli_common.hpp"
 #include "mcap_output.hpp"
@@ -40,6 +41,10 @@ struct SlamOptions : InputOptions {
   std::vector<double> imu_rpy;
   std::string out;
   std::string mcap;
+  std::string continue_from;        ///< a saved map the scans are localised in and added to
+  std::vector<double> start;        ///< X Y YAW_DEG: where the first scan is looked for in it
+  double search = 5.0;              ///< [m] half-width of that search in x and y
+  double search_yaw_deg = 180.0;    ///< [deg] half-width in yaw
 #ifdef HMAP_HAVE_VIEW
   LiveViewOptions view;
 #endif
@@ -90,6 +95,29 @@ void run_slam(const SlamOptions& o) {
     if (named.preset.empty()) named.preset = "outdoor";
     return resolve_params(named);
   }();
+  // --continue: the saved map with its own map parameters (a map built on with another cell would
+  // not be one map); the matching's (slam.*) may be set.
+  std::optional<MapFile> old;
+  if (!o.continue_from.empty()) {
+    const ParamOptions& po = o.params;
+    if (!po.preset.empty() || !po.config.empty() || po.cell || po.min_range || po.max_range) {
+      throw Error("hmap slam --continue: the map is continued with the parameters it was built with; "
+                  "--preset, --config, --cell, --min-range and --max-range cannot change them (--set slam.* can)");
+    }
+    for (const std::string& kv : po.overrides) {
+      if (kv.rfind("slam.", 0) != 0) {
+        throw Error("hmap slam --continue: --set " + kv + ": only slam.* parameters can be set for a continued map");
+      }
+    }
+    if (!(o.search >= 0.0 && o.search <= 20.0)) throw Error(format("--search %g: the half-width must be in [0, 20] m", o.search));
+    if (!(o.search_yaw_deg >= 0.0 && o.search_yaw_deg <= 180.0)) {
+      throw Error(format("--search-yaw %g: the half-width must be in [0, 180] degrees", o.search_yaw_deg));
+    }
+    old = load_map_file(o.continue_from);
+    if (old->map.empty()) throw InputError(o.continue_from, "", "holds an empty map: there is nothing to continue");
+  } else if (!o.start.empty() || o.search != 5.0 || o.search_yaw_deg != 180.0) {
+    throw Error("--start, --search and --search-yaw place the first scan in a continued map: they need --continue");
+  }
   prepare_output_set(o.out, {"poses.txt", "poses_tum.txt", "matches.csv", "map.hmap", "trajectory.png"}, "slam");  // before the work
   if (!o.mcap.empty()) check_mcap_output(o.mcap);
   const ScanSource src = o.open_inputs(/*poses_required=*/false);  // no --poses here
@@ -153,10 +181,27 @@ void run_slam(const SlamOptions& o) {
   }
   if (!o.gt.empty()) truth = read_scan_poses(o.gt, n, T_cam_velo);
 
-  slam::HmapSlam slam(params);
+  std::optional<slam::HmapSlam> holder;
+  MapStats old_stats;
+  if (old) {
+    old_stats = old->map.stats();
+    slam::ContinueOptions where;
+    if (!o.start.empty()) where.guess = {o.start[0], o.start[1], o.start[2] * std::numbers::pi / 180.0};
+    where.search_translation = o.search;
+    where.search_rotation = o.search_yaw_deg * std::numbers::pi / 180.0;
+    holder.emplace(params, std::move(old->map), where);
+    params = holder->params();
+    chosen_text.clear();  // what the first scan chose for the map is the saved map's now
+  } else {
+    holder.emplace(params);
+  }
+  slam::HmapSlam& slam = *holder;
   // The first scan defines the map frame; with a reference it starts at the reference's first
-  // pose (x, y, yaw below; its height here), so that ATE needs no alignment.
-  if (!attitude && (odometry || truth)) slam.start_at_height(slam::attitude_of(odometry ? odometry->front() : truth->front()).z);
+  // pose (x, y, yaw below; its height here), so that ATE needs no alignment. A continued map's
+  // frame is the saved one.
+  if (!old && !attitude && (odometry || truth)) slam.start_at_height(slam::attitude_of(odometry ? odometry->front() : truth->front()).z);
+  std::optional<slam::MapAlignResult> relocalised;
+  double relocalise_ms = 0.0;  // the first scan of a continued map: its search and match
   PoseList estimate;
   double ms_total = 0.0;
   std::size_t converged = 0;
@@ -202,7 +247,7 @@ void run_slam(const SlamOptions& o) {
       // Odometry gives the motion since the last scan; it is applied to the last estimate.
       const slam::PlanarPose last = slam::planar_of(estimate.back());
       guess = last * (slam::inverse(slam::planar_of((*odometry)[k - 1])) * slam::planar_of((*odometry)[k]));
-    } else if (k == 0 && (odometry || truth)) {
+    } else if (k == 0 && !old && (odometry || truth)) {
       // The first scan defines the map frame: put it where the reference trajectory starts.
       guess = slam::planar_of(odometry ? odometry->front() : truth->front());
     }
@@ -218,6 +263,10 @@ void run_slam(const SlamOptions& o) {
       memory_budget().require(static_cast<double>(slam.map().memory_bytes()), "the map");  // grows with the area seen
       return s;
     });
+    if (step.relocalised) {
+      relocalised = step.relocalised;
+      relocalise_ms = ms_since(t0);
+    }
     deskewed += step.deskewed ? 1 : 0;
     timed += point_times.empty() ? 0 : 1;
     const double ms = ms_since(t0);
@@ -274,8 +323,10 @@ void run_slam(const SlamOptions& o) {
     write_png(dir / "trajectory.png", picture);
   });
 
-  const double matched = n > 1 ? static_cast<double>(n - 1) : 1.0;
-  const double scored = n > 1 + skipped ? static_cast<double>(n - 1 - skipped) : 1.0;  // mean M_H over these
+  // Every scan but the first is matched; a continued map's first too.
+  const std::size_t matches = old ? n : (n > 0 ? n - 1 : 0);
+  const double matched = matches > 0 ? static_cast<double>(matches) : 1.0;
+  const double scored = matches > skipped ? static_cast<double>(matches - skipped) : 1.0;  // mean M_H over these
   const MapStats st = slam.map().stats();
   // Told with the result, not before the work: an error stays the one line of its run.
   if (!src.description.empty()) std::printf("input: %s\n", src.description.c_str());
@@ -287,7 +338,7 @@ void run_slam(const SlamOptions& o) {
       "(per-point time).\n",
       n, n > 0 ? ms_total / static_cast<double>(n) : 0.0,
       ms_total > 0.0 ? 1000.0 * static_cast<double>(n) / ms_total : 0.0, static_cast<double>(iterations) / matched,
-      converged, n > 0 ? n - 1 : 0, degenerate, coarse, skipped, slam::ScanMatcher::kMinHVoxels,
+      converged, matches, degenerate, coarse, skipped, slam::ScanMatcher::kMinHVoxels,
       heading_only > 0 ? format(", %zu turned their yaw alone on the thin HVoxels (x, y from odometry)", heading_only).c_str() : "",
       score_sum / scored,
       st.cells, st.hvoxels, params.map.cell_size, o.out.c_str(), truth ? " (truth in white, estimate in magenta)" : "",
@@ -296,6 +347,23 @@ void run_slam(const SlamOptions& o) {
                      : "estimated from the scans (floor normal + map surfaces)",
       chosen_text.empty() ? "" : " Chosen from the first scan:", chosen_text.c_str(),
       imu ? (" IMU: " + std::to_string(imu_samples->size()) + " samples from " + imu_from + ".").c_str() : "", deskewed, n);
+  if (old) {
+    std::printf("Continued %s (%zu cells, %zu HVoxels before; its parameters, cell %.3f m).", o.continue_from.c_str(),
+                old_stats.cells, old_stats.hvoxels, params.map.cell_size);
+    if (relocalised) {
+      const PlanarShift& at = relocalised->shift;
+      std::printf(" The first scan was found at x %.3f m, y %.3f m, z %.3f m, yaw %.2f deg (coarse search of +-%g m, "
+                  "+-%g deg; M_H %.3f over %zu columns), then matched, in %.2f s.",
+                  at.x, at.y, at.z, at.yaw * 180.0 / std::numbers::pi, o.search, o.search_yaw_deg,
+                  relocalised->match.score, relocalised->columns_used, relocalise_ms / 1000.0);
+    }
+    if (old->grid) {
+      std::printf(" Its 2D grid and ground patches are not carried (SLAM keeps the HMAP alone): hmap map --continue %s "
+                  "--poses %s/poses.txt adds the scans to all its layers.",
+                  o.continue_from.c_str(), o.out.c_str());
+    }
+    std::printf("\n");
+  }
   if (timed > 0 && params.slam.deskew == 0) {
     std::printf("%zu scans carry a time per point but were not deskewed (slam.deskew=0).\n", timed);
   }
@@ -336,6 +404,19 @@ void add_slam_command(CLI::App& app) {
                   "Also write the map and the estimated poses as an MCAP recording for Foxglove (OUT.mcap), as hmap "
                   "export --mcap writes it, with the 2D grid derived from the map's columns and one /tf per scan at its "
                   "stamp (times.txt of a KITTI folder, a bag's; else 0)");
+  cmd->add_option("--continue", opts->continue_from,
+                  "A saved map (.hmap) to localise the scans in and add them to: its map parameters stay (slam.* "
+                  "may be --set); the first scan is found by a coarse search about --start, the poses are in its "
+                  "frame, and map.hmap is the map continued (its HVoxels; a 2D grid is not carried)");
+  cmd->add_option("--start", opts->start,
+                  "With --continue: X Y YAW_DEG, where the first scan is looked for in the saved map (default 0 0 0, "
+                  "where its first scan was)")
+      ->expected(3);
+  cmd->add_option("--search", opts->search, "With --continue: half-width of the first scan's search in x and y [m], 0-20")
+      ->capture_default_str();
+  cmd->add_option("--search-yaw", opts->search_yaw_deg,
+                  "With --continue: half-width of the first scan's search in yaw [deg], 0-180")
+      ->capture_default_str();
   opts->params.add_to(*cmd);
 #ifdef HMAP_HAVE_VIEW
   opts->view.add_to(*cmd);

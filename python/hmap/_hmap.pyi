@@ -119,7 +119,9 @@ class io:
 
 class slam:
     class Slam:
-        def __init__(self, params: Params, *, imu: Optional[dict[str, Any]] = None) -> None: ...
+        def __init__(self, params: Params, *, imu: Optional[dict[str, Any]] = None,
+                     continue_map: Optional[Map] = None, start: tuple[float, float, float] = (0.0, 0.0, 0.0),
+                     search: float = 5.0, search_yaw: float = 3.141592653589793) -> None: ...
         def process(self, points: npt.NDArray[np.floating], stamp: Optional[float] = None,
                     times: Optional[npt.ArrayLike] = None, *, attitude: Optional[npt.ArrayLike] = None,
                     guess: Optional[npt.ArrayLike] = None, non_finite: str = "raise") -> dict[str, Any]: ...

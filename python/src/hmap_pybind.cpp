@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <cstring>
 #include <memory>
+#include <functional>
 #include <mutex>
 #include <optional>
 #include <span>
@@ -114,10 +115,32 @@ class Map {
     return f(live_->mapper->map(), static_cast<const OccupancyGrid*>(nullptr), std::span<const GroundPatch>());
   }
 
+ /// The live mapper whose lock read() takes; null for a loaded map.
+  [[nodiscard]] const MapperBox* lock_owner() const { return live_.get(); }
+
  private:
   std::shared_ptr<MapFile> file_;
   std::shared_ptr<MapperBox> live_;
 };
+
+/// Calls f(map_a, grid_a, ground_a, map_b, grid_b, ground_b) with both maps' locks held: taken
+/// once when both are the same mapper's (a second lock of one std::mutex would never return), and
+/// in the order of their addresses otherwise, so that merge(a, b) and merge(b, a) on two threads
+/// cannot wait on each other.
+template <typename F>
+decltype(auto) read_both(const Map& a, const Map& b, F&& f) {
+  if (a.lock_owner() != nullptr && a.lock_owner() == b.lock_owner()) {
+    return a.read([&](const HMap& m, const OccupancyGrid* g, std::span<const GroundPatch> p) { return f(m, g, p, m, g, p); });
+  }
+  if (std::less<const MapperBox*>()(b.lock_owner(), a.lock_owner())) {
+    return b.read([&](const HMap& mb, const OccupancyGrid* gb, std::span<const GroundPatch> pb) {
+      return a.read([&](const HMap& ma, const OccupancyGrid* ga, std::span<const GroundPatch> pa) { return f(ma, ga, pa, mb, gb, pb); });
+    });
+  }
+  return a.read([&](const HMap& ma, const OccupancyGrid* ga, std::span<const GroundPatch> pa) {
+    return b.read([&](const HMap& mb, const OccupancyGrid* gb, std::span<const GroundPatch> pb) { return f(ma, ga, pa, mb, gb, pb); });
+  });
+}
 
 void save(const Map& m, const std::filesystem::path& path) {
   m.read([&](const HMap& map, const OccupancyGrid* grid, std::span<const GroundPatch> ground) {
@@ -380,6 +403,17 @@ py::dict slam_step_dict(const slam::SlamStep& step) {
   d["tilt_hypotheses"] = step.tilt_hypotheses;
   d["tilt_from_floor"] = step.tilt_from_floor;
   d["mapping"] = scan_stats_dict(step.mapping);
+  if (step.relocalised) {
+    const slam::MapAlignResult& r = *step.relocalised;
+    py::dict found;
+    found["shift"] = py::make_tuple(r.shift.x, r.shift.y, r.shift.z, r.shift.yaw);
+    found["score"] = r.match.score;
+    found["columns_used"] = r.columns_used;
+    found["floor_pairs"] = r.floor_pairs;
+    d["relocalised"] = found;
+  } else {
+    d["relocalised"] = py::none();
+  }
   return d;
 }
 
@@ -679,46 +713,44 @@ void write_png_array(const std::filesystem::path& path, const py::handle& image)
 Map merge_maps(const Map& a, const Map& b, const std::array<double, 4>& shift_xyzyaw) {
   const PlanarShift shift{shift_xyzyaw[0], shift_xyzyaw[1], shift_xyzyaw[2], shift_xyzyaw[3]};
   const bool moved = shift.x != 0.0 || shift.y != 0.0 || shift.z != 0.0 || shift.yaw != 0.0;
-  return a.read([&](const HMap& map_a, const OccupancyGrid* grid_a, std::span<const GroundPatch> ground_a) {
-    return b.read([&](const HMap& map_b, const OccupancyGrid* grid_b, std::span<const GroundPatch> ground_b) {
-      py::gil_scoped_release release;
-      MapFile out{HMap(map_a.params()), {}, std::nullopt};
-      merge_map(out.map, map_a);  // into an empty map: an exact copy
+  return read_both(a, b, [&](const HMap& map_a, const OccupancyGrid* grid_a, std::span<const GroundPatch> ground_a,
+                             const HMap& map_b, const OccupancyGrid* grid_b, std::span<const GroundPatch> ground_b) {
+    py::gil_scoped_release release;
+    MapFile out{HMap(map_a.params()), {}, std::nullopt};
+    merge_map(out.map, map_a);  // into an empty map: an exact copy
+    if (moved) {
+      merge_map(out.map, shifted_map(map_b, shift));
+    } else {
+      merge_map(out.map, map_b);
+    }
+    if (grid_a != nullptr && grid_b != nullptr) {
+      out.grid.emplace(grid_a->cell_size(), probability(grid_a->clamp_min_log_odds()), probability(grid_a->clamp_max_log_odds()));
+      add_evidence(*out.grid, *grid_a);
       if (moved) {
-        merge_map(out.map, shifted_map(map_b, shift));
+        add_evidence(*out.grid, shifted_grid(*grid_b, shift));
       } else {
-        merge_map(out.map, map_b);
+        add_evidence(*out.grid, *grid_b);
       }
-      if (grid_a != nullptr && grid_b != nullptr) {
-        out.grid.emplace(grid_a->cell_size(), probability(grid_a->clamp_min_log_odds()), probability(grid_a->clamp_max_log_odds()));
-        add_evidence(*out.grid, *grid_a);
-        if (moved) {
-          add_evidence(*out.grid, shifted_grid(*grid_b, shift));
-        } else {
-          add_evidence(*out.grid, *grid_b);
-        }
-        out.ground.assign(ground_a.begin(), ground_a.end());
-        if (moved) {
-          join_ground(out.ground, shifted_ground(ground_b, shift));
-        } else {
-          join_ground(out.ground, ground_b);
-        }
+      out.ground.assign(ground_a.begin(), ground_a.end());
+      if (moved) {
+        join_ground(out.ground, shifted_ground(ground_b, shift));
+      } else {
+        join_ground(out.ground, ground_b);
       }
-      return Map(std::move(out));
-    });
+    }
+    return Map(std::move(out));
   });
 }
 
 py::dict align_maps_dict(const Map& a, const Map& b, const std::array<double, 4>& guess, double search, double search_yaw) {
-  const slam::MapAlignResult r = a.read([&](const HMap& map_a, const OccupancyGrid*, std::span<const GroundPatch>) {
-    return b.read([&](const HMap& map_b, const OccupancyGrid*, std::span<const GroundPatch>) {
-      py::gil_scoped_release release;
-      slam::MapAlignOptions options;
-      options.guess = {guess[0], guess[1], guess[2], guess[3]};
-      options.search_translation = search;
-      options.search_rotation = search_yaw;
-      return slam::align_maps(map_a, map_b, options);
-    });
+  const slam::MapAlignResult r = read_both(a, b, [&](const HMap& map_a, const OccupancyGrid*, std::span<const GroundPatch>,
+                                                     const HMap& map_b, const OccupancyGrid*, std::span<const GroundPatch>) {
+    py::gil_scoped_release release;
+    slam::MapAlignOptions options;
+    options.guess = {guess[0], guess[1], guess[2], guess[3]};
+    options.search_translation = search;
+    options.search_rotation = search_yaw;
+    return slam::align_maps(map_a, map_b, options);
   });
   py::dict d;
   d["shift"] = py::make_tuple(r.shift.x, r.shift.y, r.shift.z, r.shift.yaw);
@@ -876,15 +908,36 @@ PYBIND11_MODULE(_hmap, m) {
       "Scan-to-map SLAM on the HMAP: each scan is matched against the map by Gauss-Newton over (x, y, yaw), z, "
       "roll and pitch fitted to the map's horizontal surfaces, then merged at the estimate. The first scan "
       "defines the map frame. Use hmap.params_for_scan(first_scan) for the parameters `hmap slam` runs with.")
-      .def(py::init([](const Params& p, const py::handle& imu) {
+      .def(py::init([](const Params& p, const py::handle& imu, const std::optional<Map>& continue_map,
+                       const std::array<double, 3>& start, double search, double search_yaw) {
         auto box = std::make_shared<MapperBox>();
-        box->slam.emplace(p);
-        if (!imu.is_none()) box->imu.emplace(imu_samples_of(imu), p);
+        if (continue_map) {
+          slam::ContinueOptions where;
+          where.guess = {start[0], start[1], start[2]};
+          where.search_translation = search;
+          where.search_rotation = search_yaw;
+          HMap copy = continue_map->read([](const HMap& saved, const OccupancyGrid*, std::span<const GroundPatch>) {
+            HMap out(saved.params());
+            merge_map(out, saved);  // into an empty map: an exact copy
+            return out;
+          });
+          box->slam.emplace(p, std::move(copy), where);
+        } else {
+          box->slam.emplace(p);
+        }
+        if (!imu.is_none()) box->imu.emplace(imu_samples_of(imu), box->slam->params());
         return PySlam{box};
-      }), py::arg("params"), py::kw_only(), py::arg("imu") = py::none(),
+      }), py::arg("params"), py::kw_only(), py::arg("imu") = py::none(), py::arg("continue_map") = py::none(),
+           py::arg("start") = std::array<double, 3>{0.0, 0.0, 0.0}, py::arg("search") = 5.0,
+           py::arg("search_yaw") = std::numbers::pi,
            "imu: IMU samples as hmap.io.read_imu returns them ({'stamps', 'gyro', 'accel'[, 'orientation']}); each "
            "scan's stamp then says where it lies on the IMU's clock, and the IMU's gravity and rotation are its prior "
-           "as in `hmap slam --imu` (the mounting: slam.imu_roll, imu_pitch, imu_yaw).")
+           "as in `hmap slam --imu` (the mounting: slam.imu_roll, imu_pitch, imu_yaw). continue_map: a saved map "
+           "(hmap.Map) to localise the scans in and add them to, as `hmap slam --continue`: it keeps its own map "
+           "parameters (params gives slam.*); the first scan is found by a coarse search of +-search m and "
+           "+-search_yaw rad about start = (x, y, yaw [rad]) (its step's 'relocalised' says where), then matched "
+           "as every later scan; the poses are in the saved map's frame. Raises hmap.Error for an empty map or a "
+           "search window out of range.")
       .def("process", &slam_process, py::arg("points"), py::arg("stamp") = py::none(), py::arg("times") = py::none(),
            py::kw_only(), py::arg("attitude") = py::none(), py::arg("guess") = py::none(),
            py::arg("non_finite") = "raise",
@@ -897,7 +950,8 @@ PYBIND11_MODULE(_hmap, m) {
            "merged_at_s [s] after the stamp: the sweep's middle when deskewed by the estimates' velocity), matched, converged, iterations, initial_cost, final_cost, score (mean M_H), "
            "hvoxels_used, eigenvalues, degenerate, coarse_search, skipped, heading_only, attitude_fit, observable ({'x': bool, "
            "... 'yaw': bool}), planar_passes, deskewed, sweep_velocity, imu_used, tilt_hypotheses, tilt_from_floor, "
-           "mapping (the map update's figures).")
+           "mapping (the map update's figures), relocalised (the first scan of a continued map: {'shift': (x, y, z, yaw), "
+           "'score', 'columns_used', 'floor_pairs'}; else None).")
       .def("start_at_height", [](PySlam& self, double z) {
         const std::scoped_lock lock(self.box->mutex);
         if (self.box->slam->scans() > 0) throw py::value_error("start_at_height must come before the first scan");

@@ -103,3 +103,6 @@ def test_bad_merges_raise_the_librarys_message(yard_params):
         hmap.merge_maps(a, a, shift=(math.nan, 0, 0, 0))
     with pytest.raises(hmap.Error, match="no column"):
         hmap.align_maps(a, a, guess=(500.0, 0, 0, 0))
+    # One live mapper's map on both sides: its lock is taken once (taken twice, it never returned).
+    twice = hmap.merge_maps(a, a)
+    assert twice.stats()["cells"] == a.stats()["cells"]

@@ -183,3 +183,30 @@ def test_slam_imu_refuses_bad_samples_and_unstamped_scans(params, tmp_path):
     read = hmap.io.read_imu(tmp_path / "imu.txt")
     np.testing.assert_array_equal(read["orientation"], [[0, 0, 0, 1], [0, 0, 0, 1]])  # x y z w, normalised
     np.testing.assert_array_equal(read["gyro"][1], [0.1, 0, 0])
+
+
+def test_slam_continues_a_saved_map_as_the_cli_does(tmp_path):
+    """A second session localised in the first one's saved map (`hmap slam --continue`): the same
+    poses from Python and the CLI, and within a few centimetres of one run over all the scans."""
+    data = require_data("kitti_hdl64_seq16")
+    cli = cli_or_skip()
+    files = sorted((data / "velodyne").glob("*.bin"))[:6]
+    subprocess.run([str(cli), "slam", *map(str, files[:3]), "--out", str(tmp_path / "A")], check=True, capture_output=True)
+    subprocess.run([str(cli), "slam", *map(str, files[3:]), "--continue", str(tmp_path / "A" / "map.hmap"), "--out",
+                    str(tmp_path / "B")], check=True, capture_output=True)
+    subprocess.run([str(cli), "slam", *map(str, files), "--out", str(tmp_path / "AB")], check=True, capture_output=True)
+    cli_poses = np.loadtxt(tmp_path / "B" / "poses.txt").reshape(-1, 3, 4)
+    whole = np.loadtxt(tmp_path / "AB" / "poses.txt").reshape(-1, 3, 4)
+
+    saved = hmap.Map.load(tmp_path / "A" / "map.hmap")
+    scans = [hmap.io.read_cloud(f) for f in files[3:]]
+    slam = hmap.slam.Slam(hmap.params_for_scan(scans[0])["params"], continue_map=saved)
+    steps = [slam.process(points) for points in scans]
+    np.testing.assert_allclose(slam.poses[:, :3, :], cli_poses, rtol=0, atol=1e-9)
+    assert steps[0]["relocalised"] is not None and steps[1]["relocalised"] is None
+    assert all(s["matched"] for s in steps)
+    np.testing.assert_allclose(cli_poses[:, :3, 3], whole[3:, :3, 3], atol=0.05)
+    # The saved map is built on, not changed: the loaded one still holds what it held.
+    assert slam.map.stats()["hvoxels"] > saved.stats()["hvoxels"]
+    with pytest.raises(hmap.Error, match="search"):
+        hmap.slam.Slam(hmap.Params("outdoor"), continue_map=saved, search=25.0)

@@ -630,7 +630,7 @@ TEST_F(CliTest, PvoxBoxesReportsMissingEdgesAsMissing) {
     EXPECT_EQ(j.at(filter).at("edges_measured").get<std::size_t>(), measured) << filter;
     EXPECT_EQ(j.at(filter).at("edges_missing").get<std::size_t>(), missing) << filter;
     if (measured > 0) {
-      EXPECT_NEAR(j.at(filter).at("average_accuracy_measured").get<double>(), accuracy_sum[filter] / measured, 1e-3) << filter;
+      EXPECT_NEAR(j.at(filter).at("average_accuracy_measured").get<double>(), accuracy_sum[filter] / static_cast<double>(measured), 1e-3) << filter;
     }
     for (const auto& face : j.at(filter).at("faces")) {
       if (face.at("plane").is_null()) continue;
@@ -702,6 +702,49 @@ TEST_F(CliTest, MapContinuedFromItsFileEqualsOneRun) {
   EXPECT_NE(missing.out.find("nope.hmap"), std::string::npos) << missing.out;
 }
 
+
+// hmap slam --continue (issue 22): a second session localised in the first one's saved map.
+TEST_F(CliTest, SlamContinuesASavedMapInItsFrame) {
+  ASSERT_EQ(run("simulate --scene parking --sensor vlp16 --frames 8 --seed 4 --out " + path("seq")).code, 0);
+  const PoseList truth = read_poses(dir_ / "seq" / "poses.txt");
+  ASSERT_EQ(truth.size(), 8U);
+  std::string first, second;
+  for (int k = 0; k < 8; ++k) (k < 5 ? first : second) += " " + (dir_ / "seq" / "velodyne" / format("%06d.bin", k)).string();
+  const CmdResult one = run("slam" + first + " --out " + path("s1"));
+  ASSERT_EQ(one.code, 0) << one.out;
+  const CmdResult two = run("slam" + second + " --continue " + path("s1/map.hmap") + " --out " + path("s2"));
+  ASSERT_EQ(two.code, 0) << two.out;
+  EXPECT_NE(two.out.find("The first scan was found at"), std::string::npos) << two.out;
+  EXPECT_NE(two.out.find("3 of 3 matches converged"), std::string::npos) << two.out;
+  // Its poses are in the first session's frame (the first scan's pose there): the truth's motion
+  // from scan 0, within 10 cm and 1° (the first session's map, not the scans' order, placed them).
+  const PoseList cont = read_poses(dir_ / "s2" / "poses.txt");
+  ASSERT_EQ(cont.size(), 3U);
+  for (std::size_t k = 0; k < 3; ++k) {
+    const Pose want = truth[0].inverse() * truth[k + 5];
+    EXPECT_NEAR(cont[k].translation().x(), want.translation().x(), 0.1) << k;
+    EXPECT_NEAR(cont[k].translation().y(), want.translation().y(), 0.1) << k;
+    const double yaw_want = std::atan2(want(1, 0), want(0, 0));
+    const double yaw = std::atan2(cont[k](1, 0), cont[k](0, 0));
+    EXPECT_NEAR(std::remainder(yaw - yaw_want, 2.0 * std::numbers::pi), 0.0, std::numbers::pi / 180.0) << k;
+  }
+  EXPECT_GT(load_hmap(dir_ / "s2" / "map.hmap").stats().hvoxels, load_hmap(dir_ / "s1" / "map.hmap").stats().hvoxels);
+
+  // Bad combinations: one line, exit 2, nothing written.
+  const std::string tail = second + " --out " + path("bad");
+  for (const std::string& extra :
+       {" --continue " + path("s1/map.hmap") + " --cell 0.1", " --continue " + path("s1/map.hmap") + " --set map.max_range=30",
+        " --continue " + path("s1/map.hmap") + " --search 30", " --continue " + path("s1/map.hmap") + " --search-yaw -1",
+        std::string(" --start 1 2 3"), " --continue " + path("nope.hmap")}) {
+    const CmdResult r = run("slam" + tail + extra);
+    EXPECT_EQ(r.code, 2) << extra;
+    EXPECT_EQ(lines(r.out), 1U) << r.out;
+    EXPECT_FALSE(std::filesystem::exists(dir_ / "bad")) << extra;
+  }
+  // slam.* may change for the second session.
+  const CmdResult tuned = run("slam" + second + " --continue " + path("s1/map.hmap") + " --set slam.max_iterations=40 --out " + path("s3"));
+  EXPECT_EQ(tuned.code, 0) << tuned.out;
+}
 }  // namespace
 }  // namespace hmap
 

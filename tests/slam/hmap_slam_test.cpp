@@ -3,9 +3,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 #include "hmap/core/error.hpp"
+#include "hmap/maps/map_merge.hpp"
 #include "hmap/sim/composites.hpp"
 #include "hmap/sim/scene.hpp"
 #include "hmap/sim/sensors.hpp"
@@ -83,6 +85,108 @@ TEST(HmapSlam, RejectsInvalidParameters) {
   p = Params{};
   p.slam.idw_weight = 1.5;
   EXPECT_THROW(ScanMatcher{p}, Error);
+}
+
+/// The walled yard of FollowsASimulatedDrive: walls of different heights, a gap, a box and a kiosk,
+/// so that no turn or shift of it looks like itself.
+sim::Scene yard() {
+  sim::SceneBuilder b;
+  b.add("ground", sim::make_ground({-25, -20}, {25, 20}, 0.0));
+  b.add("north", sim::make_wall({-14, 12}, {14, 12}, 3.0));
+  b.add("south", sim::make_wall({-14, -12}, {8, -12}, 4.0));
+  b.add("west", sim::make_wall({-14, -12}, {-14, 12}, 2.5));
+  b.add("east", sim::make_wall({14, -6}, {14, 12}, 3.5));
+  b.add("box", {{sim::Box{{4, -5, 0.6}, {1.0, 0.5, 0.6}, 0.4}, sim::SurfaceKind::kBox}});
+  b.add("kiosk", {{sim::Box{{-6, 4, 1.5}, {2.0, 1.5, 1.5}, 0.3}, sim::SurfaceKind::kWall}});
+  return b.build();
+}
+
+/// A copy of a map (merged into an empty one: an exact copy), for a saved map to continue.
+HMap copy_of(const HMap& map) {
+  HMap out(map.params());
+  merge_map(out, map);
+  return out;
+}
+
+Params yard_params() {
+  Params p = outdoor_preset();
+  p.map.cell_size = 0.05;
+  p.map.max_range = 20.0;
+  p.slam.min_layer_height = 0.1;
+  return p;
+}
+
+TEST(HmapSlam, ContinuedMapFindsTheNextSessionsFirstScanAndGrows) {
+  // Session one: three scans from the origin, z, roll and pitch estimated (the map's z = 0 at the
+  // sensor, 1.8 m above the ground). Session two starts elsewhere, 3 m east, 1.5 m north, turned
+  // 40°, with nothing but the saved map and a search of all headings about the map's origin: its
+  // first scan is found within 4 cm and 0.4°, at the same height, and the scans after it follow.
+  const sim::Scene scene = yard();
+  Params p = yard_params();
+  p.map.cell_size = 0.1;  // (the search of every heading costs (2·3.5 m / 2 cells)² positions per yaw step)
+  sim::SpinningLidar lidar(sim::SpinningLidarParams::hdl64e());
+  const Attitude sensor{1.8, 0.0, 0.0};
+  HmapSlam first(p);
+  for (int k = 0; k < 3; ++k) {
+    const PlanarPose truth{0.1 * k, 0.0, 0.0};
+    (void)first.process(lidar.scan(scene, compose(truth, sensor), 0.1 * k).points_sensor, std::nullopt);
+  }
+  const MapStats before = first.map().stats();
+
+  Params changed = p;
+  changed.map.cell_size = 0.25;  // the saved map's cell stays
+  changed.slam.max_iterations = p.slam.max_iterations + 3;
+  ContinueOptions where;  // all headings, 3.5 m about the map's origin
+  where.search_translation = 3.5;
+  HmapSlam second(changed, copy_of(first.map()), where);
+  EXPECT_EQ(second.params().map.cell_size, p.map.cell_size);
+  EXPECT_EQ(second.params().slam.max_iterations, p.slam.max_iterations + 3);
+  for (int k = 0; k < 4; ++k) {
+    const PlanarPose truth{3.0 + 0.1 * k, 1.5 + 0.05 * k, 40.0 * kDeg + 0.5 * kDeg * k};
+    const SlamStep step = second.process(lidar.scan(scene, compose(truth, sensor), 0.1 * k).points_sensor, std::nullopt);
+    EXPECT_TRUE(step.matched) << k;
+    EXPECT_EQ(step.relocalised.has_value(), k == 0) << k;
+    const PlanarPose est = planar_of(step.T_map_sensor);
+    EXPECT_NEAR(est.x, truth.x, 0.04) << k;
+    EXPECT_NEAR(est.y, truth.y, 0.04) << k;
+    EXPECT_NEAR(est.yaw, truth.yaw, 0.4 * kDeg) << k;
+    EXPECT_NEAR(step.T_map_sensor.translation().z(), 0.0, 0.03) << k;
+    if (k == 0) {
+      EXPECT_NEAR(step.relocalised->shift.yaw, truth.yaw, 3.0 * kDeg);  // the search's, before the match refines it
+      EXPECT_GT(step.relocalised->columns_used, 100U);
+    }
+  }
+  // Built on, not rebuilt: the saved columns are still there and the second session's view added.
+  const MapStats after = second.map().stats();
+  EXPECT_GT(after.cells, before.cells);
+  EXPECT_GE(after.hvoxels, before.hvoxels);
+  EXPECT_EQ(second.scans(), 4U);
+}
+
+TEST(HmapSlam, ContinuingRefusesAnEmptyMapABadWindowAndAScanOffTheMap) {
+  const sim::Scene scene = yard();
+  const Params p = yard_params();
+  EXPECT_THROW(HmapSlam(p, HMap(p), ContinueOptions{}), Error);
+  sim::SpinningLidar lidar(sim::SpinningLidarParams::hdl64e());
+  const PointCloud scan = lidar.scan(scene, compose(PlanarPose{}, Attitude{1.8, 0.0, 0.0}), 0.0).points_sensor;
+  HmapSlam first(p);
+  (void)first.process(scan, std::nullopt);
+  ContinueOptions bad;
+  bad.search_translation = 21.0;
+  EXPECT_THROW(HmapSlam(p, copy_of(first.map()), bad), Error);
+  bad = {};
+  bad.search_rotation = -0.1;
+  EXPECT_THROW(HmapSlam(p, copy_of(first.map()), bad), Error);
+  bad = {};
+  bad.guess.x = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(HmapSlam(p, copy_of(first.map()), bad), Error);
+  // Looked for 500 m away, the scan lies over nothing of the map: one error, and the map is unchanged.
+  ContinueOptions far;
+  far.guess.x = 500.0;
+  HmapSlam lost(p, copy_of(first.map()), far);
+  EXPECT_THROW((void)lost.process(scan, std::nullopt), Error);
+  EXPECT_EQ(lost.map().stats().hvoxels, first.map().stats().hvoxels);
+  EXPECT_EQ(lost.scans(), 0U);
 }
 
 }  // namespace

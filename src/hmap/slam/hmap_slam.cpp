@@ -5,6 +5,9 @@
 #include <cmath>
 #include <numbers>
 
+#include "hmap/core/error.hpp"
+#include "hmap/core/format.hpp"
+
 namespace hmap::slam {
 
 
@@ -46,6 +49,39 @@ PlanarPose inverse(const PlanarPose& a) {
 
 HmapSlam::HmapSlam(const Params& params)
     : params_(params), mapper_(params), matcher_(params), refiner_(params), level_hvoxelizer_(params.map) {}
+
+namespace {
+
+/// The continued map's own map, ground and occupancy parameters with `params`'s slam section.
+Params continued_params(const Params& params, const HMap& map) {
+  if (map.empty()) throw Error("continuing a map: the saved map is empty");
+  Params p = map.params();
+  p.slam = params.slam;
+  validate(p);
+  return p;
+}
+
+}  // namespace
+
+HmapSlam::HmapSlam(const Params& params, HMap map, const ContinueOptions& where)
+    : params_(continued_params(params, map)),
+      mapper_(std::move(map)),
+      matcher_(params_),
+      refiner_(params_),
+      level_hvoxelizer_(params_.map),
+      continuing_(where) {
+  const PlanarPose& g = where.guess;
+  if (!(std::isfinite(g.x) && std::isfinite(g.y) && std::isfinite(g.yaw))) {
+    throw Error("continuing a map: the first scan's guess must be finite");
+  }
+  if (!(where.search_translation >= 0.0 && where.search_translation <= 20.0)) {
+    throw Error(format("continuing a map: the search half-width %g m is outside [0, 20]", where.search_translation));
+  }
+  if (!(where.search_rotation >= 0.0 && where.search_rotation <= std::numbers::pi)) {
+    throw Error(format("continuing a map: the yaw search half-width %g rad is outside [0, pi]", where.search_rotation));
+  }
+  last_ = previous_ = g;
+}
 
 PlanarPose HmapSlam::predict() const {
   if (scans_ < 2) return last_;
@@ -249,7 +285,26 @@ SlamStep HmapSlam::process(const ScanInput& input) {
     }
   }
   Eigen::Matrix3d predicted = Eigen::Matrix3d::Zero();  // the odometry's prior covariance
-  if (scans_ > 0) {
+  const bool relocalise = scans_ == 0 && continuing_.has_value();
+  if (relocalise) {
+    // The first scan of a continued map: its levelled HVoxels as a map of their own (the sensor at
+    // x = y = yaw = 0, z = 0), registered onto the saved map about the guess; z from the floors.
+    Mapper scan_map(params_);
+    Attitude level = attitude;
+    level.z = 0.0;
+    (void)scan_map.integrate(points_sensor, compose(PlanarPose{}, level));
+    if (scan_map.map().empty()) throw Error("continuing a map: the first scan has no points in range");
+    MapAlignOptions o;
+    o.guess = {continuing_->guess.x, continuing_->guess.y, 0.0, continuing_->guess.yaw};
+    o.search_translation = continuing_->search_translation;
+    o.search_rotation = continuing_->search_rotation;
+    step.relocalised = align_maps(mapper_.map(), scan_map.map(), o);
+    const PlanarShift& at = step.relocalised->shift;
+    estimate = {at.x, at.y, at.yaw};
+    if (!given) attitude.z = at.z;  // a given attitude's z is the map's already
+    step.guess = estimate;
+  }
+  if (scans_ > 0 || relocalise) {
     // The second scan has no motion prior (constant velocity predicts standing still): search.
     const auto search = scans_ == 1 && !guess ? CoarseSearch::kAlways : CoarseSearch::kWhenFailed;
     // Odometry: its motion since the last scan, trusted to σ = sigma + noise · |motion| per axis,
@@ -257,7 +312,7 @@ SlamStep HmapSlam::process(const ScanInput& input) {
     // EKF's: grown by each motion, shrunk by each match). After a blind stretch (scans with too
     // few HVoxels) the prior is wide, and the map takes back the drift the odometry made there.
     std::optional<MotionPrior> prior;
-    if (guess) {
+    if (guess && !relocalise) {
       const SlamParams& sp = params_.slam;
       const PlanarPose motion = inverse(last_) * *guess;
       const double st = sp.odometry_sigma_translation + sp.odometry_noise * std::hypot(motion.x, motion.y);
@@ -302,7 +357,7 @@ SlamStep HmapSlam::process(const ScanInput& input) {
       }
     }
   }
-  if (guess && scans_ > 0) {
+  if (guess && (scans_ > 0 || relocalise)) {
     // The estimate's uncertainty for the next scan's prior: the match's, or the prediction's when
     // nothing was matched. Capped, so that a long blind stretch stays a finite matrix.
     pose_covariance_ = step.matched && !step.match.skipped ? step.match.covariance : predicted;
@@ -330,8 +385,9 @@ SlamStep HmapSlam::process(const ScanInput& input) {
   // The floor normal in the map as this scan sees it, for the next scan's tilt prediction.
   if (floor_sensor) floor_up_ = (step.T_map_merged.linear() * *floor_sensor).normalized();
   step.mapping = mapper_.integrate(points_sensor, step.T_map_merged);
+  // (Not for a continued map: rebuilt from the first scans alone, it would lose what was saved.)
   if (!input.times.empty() && params_.slam.deskew >= 1 && !step.deskewed && skewed_.size() == scans_ &&
-      skewed_.size() < kMaxSkewedScans) {
+      skewed_.size() < kMaxSkewedScans && !continuing_) {
     skewed_.push_back({PointCloud(input.points_sensor.begin(), input.points_sensor.end()),
                        std::vector<float>(input.times.begin(), input.times.end()), step.T_map_merged});
   }

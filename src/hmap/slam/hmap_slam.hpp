@@ -9,6 +9,7 @@
 #include "hmap/slam/attitude.hpp"
 #include "hmap/slam/deskew.hpp"
 #include "hmap/slam/imu.hpp"
+#include "hmap/slam/map_align.hpp"
 #include "hmap/slam/scan_matcher.hpp"
 
 namespace hmap::slam {
@@ -37,6 +38,13 @@ struct ScanInput {
   std::optional<ImuPrior> imu;       ///< the IMU's gravity and rotation since the previous scan
 };
 
+/// Where a continued map's first scan is looked for (HmapSlam's continuing constructor).
+struct ContinueOptions {
+  PlanarPose guess;                 ///< where the first scan is believed to lie in the saved map (x, y, yaw)
+  double search_translation = 5.0;  ///< [m] half-width of its coarse search in x and y, [0, 20]
+  double search_rotation = 3.14159265358979323846;  ///< [rad] half-width in yaw, [0, π]: all headings by default
+};
+
 /// What one SLAM step did.
 struct SlamStep {
   Pose T_map_sensor = Pose::Identity();  ///< the sensor's pose at the scan's reference time (its stamp)
@@ -61,6 +69,9 @@ struct SlamStep {
   /// differed; 0 or 1: there was one) and whether the floor's won.
   int tilt_hypotheses = 0;
   bool tilt_from_floor = true;
+  /// The first scan of a continued map: where it was found in the saved map (align_maps of the
+  /// levelled scan onto the map, before the planar match refined it). Empty otherwise.
+  std::optional<MapAlignResult> relocalised;
 };
 
 /// The scan-to-map SLAM loop. Not thread-safe; one instance per sequence.
@@ -68,6 +79,14 @@ class HmapSlam {
  public:
   /// Throws hmap::Error for invalid parameters.
   explicit HmapSlam(const Params& params);
+  /// Continues `map` (a saved HMAP): scans are matched against it and merged into it. The map keeps
+  /// its own map parameters (cell, ranges, layers: a map built on with others would not be one map);
+  /// `params` gives the rest (slam.*). The first scan, levelled by its floor, is registered onto the
+  /// map by align_maps (a coarse search of `where`'s window about its guess, z from the floors),
+  /// then matched as every later scan is; with a constant-velocity start from there. Throws
+  /// hmap::Error for an empty map, invalid parameters or a search window out of range; process()
+  /// throws when the first scan has no column over the map at the guess.
+  HmapSlam(const Params& params, HMap map, const ContinueOptions& where);
 
   /// Matches `points_sensor` against the map from `guess` (nothing: constant velocity from the
   /// last two estimates), then integrates it at the estimate. The first scan is integrated at
@@ -107,6 +126,8 @@ class HmapSlam {
   [[nodiscard]] PlanarPose predict() const;
 
   [[nodiscard]] const HMap& map() const { return mapper_.map(); }
+  /// The parameters in force (a continued map's own map parameters with the given slam.*).
+  [[nodiscard]] const Params& params() const { return params_; }
   [[nodiscard]] std::size_t scans() const { return scans_; }
 
  private:
@@ -143,6 +164,7 @@ class HmapSlam {
   static constexpr std::size_t kMaxSkewedScans = 2;
   std::vector<SkewedScan> skewed_;
   std::size_t scans_ = 0;
+  std::optional<ContinueOptions> continuing_;  // set: the map was saved before; the first scan is found in it
 };
 
 }  // namespace hmap::slam
