@@ -7,6 +7,7 @@
 #include <pybind11/stl/filesystem.h>
 
 #include <algorithm>
+#include <limits>
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -41,6 +42,7 @@
 #include "hmap/render/render.hpp"
 #include "hmap/slam/hmap_slam.hpp"
 #include "hmap/maps/map_merge.hpp"
+#include "hmap/maps/raycast.hpp"
 #include "hmap/occupancy/layers_merge.hpp"
 #include "hmap/slam/map_align.hpp"
 #include "arrays.hpp"
@@ -184,6 +186,59 @@ py::array_t<bool> occupied(const Map& m, const py::handle& xyz) {
     return 0;
   });
   return out;
+}
+
+/// Map.raycast: rays from `origins` along `directions` ((N, 3) each, or one (3,) for all), their
+/// first HVoxel within max_range: ranges (N,), NaN where none, and the points met (N, 3).
+py::tuple raycast_rays(const Map& m, const py::handle& origins, const py::handle& directions, double max_range) {
+  const auto rows = [](const py::handle& h, const char* name) {
+    py::array a = py::array::ensure(h);
+    if (!a) throw py::value_error(std::string(name) + " must be an array of shape (N, 3) or (3,)");
+    if (a.ndim() == 1) a = a.attr("reshape")(1, -1);
+    return checked_points(a, name);
+  };
+  const auto o = py::array_t<double, py::array::forcecast>::ensure(rows(origins, "origins")).unchecked<2>();
+  const auto d = py::array_t<double, py::array::forcecast>::ensure(rows(directions, "directions")).unchecked<2>();
+  const py::ssize_t n = std::max(o.shape(0), d.shape(0));
+  if ((o.shape(0) != n && o.shape(0) != 1) || (d.shape(0) != n && d.shape(0) != 1)) {
+    throw py::value_error(format("origins hold %zd rows and directions %zd: give as many, or one of either",
+                                 o.shape(0), d.shape(0)));
+  }
+  py::array_t<double> ranges(n);
+  py::array_t<double> points({n, py::ssize_t{3}});
+  auto r = ranges.mutable_unchecked<1>();
+  auto q = points.mutable_unchecked<2>();
+  m.read([&](const HMap& map, const OccupancyGrid*, std::span<const GroundPatch>) {
+    py::gil_scoped_release release;
+    for (py::ssize_t k = 0; k < n; ++k) {
+      const py::ssize_t a = o.shape(0) == 1 ? 0 : k;
+      const py::ssize_t b = d.shape(0) == 1 ? 0 : k;
+      const auto hit = raycast(map, {o(a, 0), o(a, 1), o(a, 2)}, {d(b, 0), d(b, 1), d(b, 2)}, max_range);
+      const double nan = std::numeric_limits<double>::quiet_NaN();
+      r(k) = hit ? hit->range : nan;
+      for (int c = 0; c < 3; ++c) q(k, c) = hit ? hit->point[c] : nan;
+    }
+    return 0;
+  });
+  return py::make_tuple(ranges, points);
+}
+
+/// Map.__iter__: (i, j, column) per non-empty cell, by i then j; the column as Map.column gives it.
+py::iterator cells_of(const Map& m) {
+  py::list cells;
+  m.read([&](const HMap& map, const OccupancyGrid*, std::span<const GroundPatch>) {
+    std::vector<CellKey> keys;
+    map.for_each_column([&](const CellKey& k, const ColumnView&) { keys.push_back(k); });
+    std::sort(keys.begin(), keys.end(), [](const CellKey& a, const CellKey& b) { return a.i != b.i ? a.i < b.i : a.j < b.j; });
+    for (const CellKey& k : keys) {
+      const ColumnView c = map.column(k);
+      py::array_t<HVoxel> col(static_cast<py::ssize_t>(c.size()));
+      std::memcpy(col.mutable_data(), c.data(), c.size() * sizeof(HVoxel));
+      cells.append(py::make_tuple(k.i, k.j, col));
+    }
+    return 0;
+  });
+  return py::iter(cells);
 }
 
 py::array column(const Map& m, double x, double y) {
@@ -832,6 +887,14 @@ PYBIND11_MODULE(_hmap, m) {
       })
       .def("stats", &stats_dict, "Cells, HVoxels, tiles, memory, bounds ((xmin, ymin, zmin), (xmax, ymax, zmax)) or None.")
       .def("occupied", &occupied, py::arg("xyz"), "For an (N, 3) array of points: a bool array, True inside an HVoxel.")
+      .def("raycast", &raycast_rays, py::arg("origins"), py::arg("directions"), py::arg("max_range"),
+           "raycast(origins, directions, max_range) -> (ranges, points): where rays first meet an HVoxel, walked cell "
+           "by cell (exact for the columns: no thin HVoxel is stepped over). origins, directions: (N, 3) arrays, or "
+           "one (3,) for every ray (directions need not be unit); max_range [m] in [0, 1e6]. ranges: (N,) metres "
+           "along each ray, NaN where it meets nothing; points: (N, 3), NaN likewise. Runs without the GIL.")
+      .def("__iter__", &cells_of,
+           "Iterates over the non-empty cells by i then j: (i, j, column), the column as Map.column gives it; the "
+           "cell's centre is ((i + 0.5)·cell_size, (j + 0.5)·cell_size).")
       .def("column", &column, py::arg("x"), py::arg("y"),
            "The HVoxels of the cell holding (x, y), lowest first, as a structured array (z_min, z_max, count, density).")
       .def("hvoxels", &hvoxels_of,

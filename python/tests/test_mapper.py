@@ -49,6 +49,47 @@ def test_occupied_inside_and_outside_the_wall(params, scene):
     assert m.occupied(np.zeros((0, 3))).shape == (0,)
 
 
+def test_raycast_meets_the_wall_and_the_floor(params, scene):
+    """The wall's cell spans x in [5.0, 5.2), z 0 .. 2 (the sensor 1 m up): a level ray from the
+    sensor meets it at x = 5.0; one straight down meets the floor's HVoxel top; one over the wall
+    meets nothing. The points met are occupied and a step short of them is not."""
+    m = wall_map(params, scene)[0].map
+    origins = np.array([[0.0, 0.1, 1.0], [2.01, 0.11, 1.0], [0.0, 0.1, 3.0], [0.0, 0.1, 1.0]])
+    directions = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -2.0], [1.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+    floor_top = m.column(2.01, 0.11)["z_max"].max()
+    ranges, points = m.raycast(origins[:3], directions[:3], 50.0)
+    assert ranges[0] == pytest.approx(5.0, abs=1e-9)
+    assert ranges[1] == pytest.approx(1.0 - floor_top, abs=1e-6)
+    assert np.isnan(ranges[2]) and np.isnan(points[2]).all()
+    assert m.occupied(points[:2]).all()
+    short = origins[:2] + (ranges[:2, None] - 1e-3) * directions[:2] / np.linalg.norm(directions[:2], axis=1)[:, None]
+    assert not m.occupied(short).any()
+    # One origin for many directions: a fan of level rays, each meets the wall where |y| < 2.
+    angles = np.radians(np.arange(-30, 31, 5))
+    fan = np.column_stack([np.cos(angles), np.sin(angles), np.zeros_like(angles)])
+    r, p = m.raycast(origins[0], fan, 50.0)
+    ahead = np.abs(5.0 * np.tan(angles) + 0.1) < 1.9
+    assert np.allclose(p[ahead, 0], 5.0) and np.allclose(r[ahead], 5.0 / np.cos(angles[ahead]))
+    assert np.isnan(r[~ahead & (np.abs(angles) > np.radians(25))]).all()  # past the wall's ends: the floor is below
+    assert np.isnan(m.raycast(origins[3], directions[3], 4.9)[0]).all()  # short of the wall
+    with pytest.raises(ValueError, match="rows"):
+        m.raycast(np.zeros((2, 3)), np.ones((3, 3)), 1.0)
+    with pytest.raises(hmap.Error, match="max_range"):
+        m.raycast(origins[0], directions[0], -1.0)
+    with pytest.raises(hmap.Error, match="direction"):
+        m.raycast(origins[0], np.zeros(3), 1.0)
+
+
+def test_iterating_a_map_gives_each_cell_and_its_column(params, scene):
+    m = wall_map(params, scene)[0].map
+    cells = list(m)
+    assert len(cells) == m.stats()["cells"]
+    assert sum(len(col) for _, _, col in cells) == m.stats()["hvoxels"]
+    assert [(i, j) for i, j, _ in cells] == sorted((i, j) for i, j, _ in cells)
+    for i, j, col in cells[:: max(1, len(cells) // 50)]:
+        np.testing.assert_array_equal(col, m.column((i + 0.5) * m.cell_size, (j + 0.5) * m.cell_size))
+
+
 def test_stats_count_the_scene(params, scene):
     m = wall_map(params, scene)[0].map
     s = m.stats()
