@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -111,6 +112,31 @@ TEST(MapAlign, RefusesWhatCannotBeAligned) {
   MapAlignOptions bad;
   bad.guess.yaw = NAN;
   EXPECT_THROW((void)align_maps(a, a, bad), Error);
+}
+
+
+TEST(MapAlign, FindsAMapFarFromItsOriginOverAllHeadings) {
+  // b's scans lie 9-13 m from its frame's origin and its frame is turned 120° from a's: turned
+  // about b's columns' centroid, the window about the guess would miss it by 17 m (the
+  // chord), so the yaw window is cut into sectors searched from their own centres.
+  const sim::Scene scene = yard();
+  const HMap a = session(scene, {at(0, 0, 0), at(4, 1, 0.3), at(-5, 3, -0.4)}, Pose::Identity(), 1);
+  Pose S = Pose::Identity();
+  S.linear() = Eigen::AngleAxisd(120.0 * std::numbers::pi / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  S.translation() = Eigen::Vector3d(-2.0, 9.5, 0.1);
+  const HMap b = session(scene, {at(2, -2, 0.8), at(-3, 0, 2.0)}, S, 10);
+  const Pose want = S.inverse();
+  const double want_yaw = std::atan2(want.linear()(1, 0), want.linear()(0, 0));
+  MapAlignOptions options;  // a guess 0.7 m off with no heading: ±1.5 m and every heading
+  options.guess = {want.translation().x() + 0.6, want.translation().y() - 0.4, 0.0, 0.0};
+  options.search_translation = 1.5;
+  options.search_rotation = std::numbers::pi;
+  const MapAlignResult r = align_maps(a, b, options);
+  EXPECT_GT(r.sectors, 1);
+  EXPECT_NEAR(r.shift.x, want.translation().x(), 0.05);
+  EXPECT_NEAR(r.shift.y, want.translation().y(), 0.05);
+  EXPECT_NEAR(r.shift.z, want.translation().z(), 0.05);
+  EXPECT_NEAR(std::remainder(r.shift.yaw - want_yaw, 2.0 * std::numbers::pi), 0.0, 0.3 * std::numbers::pi / 180.0);
 }
 
 }  // namespace

@@ -96,10 +96,24 @@ MapAlignResult align_maps(const HMap& reference, const HMap& moving, const MapAl
   auto [scan, reach] = build_scan(z0);
   result.columns_used = scan.cells.size();
 
+  // The coarse search turns the centred scan about o, but the window is about the moving frame's
+  // origin: turned by ψ about o instead, the origin moves by the chord 2·|o|·sin(ψ/2) (12.7 m for
+  // 105° at 8 m; balm_os0's second half, whose right pose then lay outside the ±5 m window). The
+  // yaw window is cut into sectors, each searched from its own centre turned about the origin, so
+  // narrow that within one the chord stays under kChord, which widens its translation window.
+  const Eigen::Vector2d os((o.i) * s, (o.j) * s);
+  constexpr double kChord = 1.0;  // [m]
+  const double lever = os.norm();
+  int sectors = 1;
+  if (options.search_rotation > 0.0 && lever > 0.5 * kChord) {
+    const double w = 2.0 * std::asin(0.5 * kChord / lever);  // the sector's half-width for that chord
+    sectors = static_cast<int>(std::min(256.0, std::ceil(options.search_rotation / w)));
+  }
+  const double half = options.search_rotation / sectors;
   Params params = reference.params();
   params.map.max_range = std::max(params.map.min_range + s, reach + s);
-  params.slam.coarse_translation = options.search_translation;
-  params.slam.coarse_rotation = options.search_rotation;
+  params.slam.coarse_translation = std::min({options.search_translation + 2.0 * lever * std::sin(0.5 * half), 20.0, 100.0 * s});
+  params.slam.coarse_rotation = half;
   if (params.slam.max_hvoxels == 0) params.slam.max_hvoxels = 50000;
   if (params.slam.coarse_trigger_ratio <= 0.0) params.slam.coarse_trigger_ratio = 0.85;
   try {
@@ -109,7 +123,6 @@ MapAlignResult align_maps(const HMap& reference, const HMap& moving, const MapAl
   }
   ScanMatcher matcher(params);
   // The centred scan at the guess: its origin o sits at R(yaw) o + t.
-  const Eigen::Vector2d os((o.i) * s, (o.j) * s);
   const auto centred = [&](const PlanarShift& shift) {
     const double cc = std::cos(shift.yaw), ss = std::sin(shift.yaw);
     return PlanarPose{shift.x + cc * os.x() - ss * os.y(), shift.y + ss * os.x() + cc * os.y(), shift.yaw};
@@ -118,7 +131,14 @@ MapAlignResult align_maps(const HMap& reference, const HMap& moving, const MapAl
     const double cc = std::cos(p.yaw), ss = std::sin(p.yaw);
     return PlanarShift{p.x - (cc * os.x() - ss * os.y()), p.y - (ss * os.x() + cc * os.y()), z, p.yaw};
   };
-  result.match = matcher.match(scan, reference, centred(g), CoarseSearch::kAlways);
+  // Each sector from its centre; the match that agrees best (mean M_H) wins.
+  for (int k = 0; k < sectors; ++k) {
+    PlanarShift start = g;
+    start.yaw += -options.search_rotation + (2 * k + 1) * half;
+    MatchResult m = matcher.match(scan, reference, centred(start), CoarseSearch::kAlways);
+    if (k == 0 || m.score > result.match.score) result.match = m;
+  }
+  result.sectors = sectors;
   PlanarShift shift = uncentred(result.match.pose, z0);
   // z again where the columns now fall, and the planar match refined from there.
   const double z1 = floor_offset(reference, moving, shift, result.floor_pairs);

@@ -22,11 +22,14 @@ struct MapAlignResult {
   MatchResult match;            ///< the planar match (score: mean M_H at the result)
   std::size_t columns_used = 0; ///< columns of `moving` that took part (those over `reference`'s area)
   std::size_t floor_pairs = 0;  ///< column pairs the z offset was taken from
+  int sectors = 1;              ///< yaw sectors searched (a map far from its frame's origin needs more)
 };
 
 /// Registers `moving` onto `reference` (same cell size): z first, as the median height difference
 /// of the lowest surfaces of columns that fall on each other at the guess, then x, y, yaw by
-/// Gauss-Newton on eq. (5) after an exhaustive coarse search of the window in `options`, then z
+/// Gauss-Newton on eq. (5) after an exhaustive coarse search of the window in `options` (about the
+/// moving frame's origin: in yaw sectors narrow enough that turning about the columns' centroid
+/// stays within 1 m of turning about the origin; the best-agreeing sector's match wins), then z
 /// again at the result. Both maps are taken as gravity-aligned (their z up), as hmap builds them.
 /// The columns of `moving` over `reference`'s area (its bounds widened by the search) take part,
 /// those within 1024 cells of their centroid. Throws hmap::Error for different cell sizes, a search
