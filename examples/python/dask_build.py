@@ -137,15 +137,14 @@ def plan_scans(count, parts):
 def compare(a, b):
     """Columns and tiles where two maps differ (HVoxel for HVoxel), as counts."""
     def columns(m):
-        hv = m.hvoxels()
-        keys = hv["i"].astype(np.int64) << 32 | (hv["j"].astype(np.int64) & 0xFFFFFFFF)
-        starts = np.flatnonzero(np.r_[True, keys[1:] != keys[:-1]])
-        ends = np.r_[starts[1:], len(keys)]
-        return {int(keys[s]): hv[s:e].tobytes() for s, e in zip(starts, ends)}
+        hv = m.hvoxels()   # sorted by cell, then height
+        cells = np.stack([hv["i"], hv["j"]], axis=1)
+        starts = np.flatnonzero(np.r_[True, np.any(cells[1:] != cells[:-1], axis=1)])
+        ends = np.r_[starts[1:], len(hv)]
+        return {(int(cells[s, 0]), int(cells[s, 1])): hv[s:e].tobytes() for s, e in zip(starts, ends)}
     ca, cb = columns(a), columns(b)
     differ = {k for k in ca.keys() | cb.keys() if ca.get(k) != cb.get(k)}
-    shift = int(np.log2(hmap.TILE_CELLS))
-    tiles = {((k >> 32) >> shift, (np.int64(k & 0xFFFFFFFF).astype(np.int32) >> shift)) for k in differ}
+    tiles = {(i // hmap.TILE_CELLS, j // hmap.TILE_CELLS) for i, j in differ}
     return {"columns": len(ca), "columns_differ": len(differ), "only_in_one": len(ca.keys() ^ cb.keys()),
             "tiles_differ": len(tiles), "equal": not differ}
 
