@@ -11,6 +11,8 @@ A thin shell over the C++ libraries (module ``_hmap``)::
     m.occupied(np.array([[1.0, 2.0, 0.5]]))         # -> array([ True])
     m.save("out.hmap")
 
+``hmap.merge_maps`` unites two maps; ``hmap.crop_map`` cuts one to a range of tiles (a map built in
+parts, each from the scans that reach its tiles, merges to the one-run map: examples/python/dask_build.py).
 Also ``hmap.slam.Slam`` (poses from the scans, scan by scan), ``hmap.eval.trajectory`` (ATE, RPE),
 ``hmap.io.kitti_sequence``, ``scan_sequence``, ``rgbd_sequence``, ``bag_sequence`` (scans as
 (points, pose, stamp), as the CLI reads them), ``hmap.io.read_imu``, ``hmap.sim`` (scenes, sensors,
@@ -23,13 +25,13 @@ for a file), both ``ValueError`` subclasses carrying the library's one-line mess
 """
 
 from . import _hmap
-from ._hmap import (Error, Grid2D, HybridMapper, InputError, Map, Mapper, Params, align_maps, merge_maps,
-                    params_for_scan)
+from ._hmap import (TILE_CELLS, Error, Grid2D, HybridMapper, InputError, Map, Mapper, Params, align_maps,
+                    crop_map, merge_maps, params_for_scan)
 from . import eval, io, pvox, render, sim, slam
 
 # Not "eval": `from hmap import *` would hide the builtin eval(); use hmap.eval.
 __all__ = ["Error", "InputError", "Params", "params_for_scan", "Mapper", "HybridMapper", "Map", "Grid2D", "merge_maps",
-           "align_maps", "io", "pvox", "render", "sim", "slam"]
+           "align_maps", "crop_map", "TILE_CELLS", "io", "pvox", "render", "sim", "slam"]
 
 _SECTIONS = sorted({name.split(".", 1)[0] for name in Params.names()})
 

@@ -74,6 +74,11 @@ def params_for_scan(first_scan: npt.NDArray[np.floating], preset: Optional[str] 
 def merge_maps(a: Map, b: Map, *, shift: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)) -> Map:
     """`hmap merge`: `a` with `b` merged in, `b` first moved by shift = (x, y, z, yaw [rad])."""
     ...
+def crop_map(map: Map, tiles: tuple[int, int, int, int]) -> Map:
+    """The HVoxels of `map` in tile keys [i_begin, i_end) x [j_begin, j_end), copied exactly (HMAP alone)."""
+    ...
+TILE_CELLS: int
+
 def align_maps(a: Map, b: Map, *, guess: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0),
                search: float = 5.0, search_yaw: float = 0.5) -> dict[str, Any]:
     """`hmap merge --align`: b's frame in a's as {'shift': (x, y, z, yaw), 'score', ...}."""

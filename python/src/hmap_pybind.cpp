@@ -78,7 +78,7 @@ py::dict scan_stats_dict(const ScanStats& s) {
 /// A Mapper or a HybridMapper with the lock that lets integrate() run without the GIL while
 /// other Python threads query the map or integrate into other mappers.
 struct MapperBox {
-  std::mutex mutex;
+  std::mutex mutex;  // read_both takes it once for merge_maps(a, a)
   std::optional<Mapper> mapper;
   std::optional<HybridMapper> hybrid;
   std::optional<slam::HmapSlam> slam;
@@ -797,6 +797,14 @@ Map merge_maps(const Map& a, const Map& b, const std::array<double, 4>& shift_xy
   });
 }
 
+/// A map cut to a range of tiles (the HMAP alone: the ground tree and the 2D grid are not cut).
+Map crop_map_of(const Map& m, const std::array<std::int32_t, 4>& tiles) {
+  return m.read([&](const HMap& map, const OccupancyGrid*, std::span<const GroundPatch>) {
+    py::gil_scoped_release release;
+    return Map(MapFile{crop_map(map, TileRange{tiles[0], tiles[1], tiles[2], tiles[3]}), {}, std::nullopt});
+  });
+}
+
 py::dict align_maps_dict(const Map& a, const Map& b, const std::array<double, 4>& guess, double search, double search_yaw) {
   const slam::MapAlignResult r = read_both(a, b, [&](const HMap& map_a, const OccupancyGrid*, std::span<const GroundPatch>,
                                                      const HMap& map_b, const OccupancyGrid*, std::span<const GroundPatch>) {
@@ -830,6 +838,12 @@ void bind_merge(py::module_& m) {
         "search of +-search [m] and +-search_yaw [rad] around guess = (x, y, z, yaw)). Returns {'shift': (x, y, z, "
         "yaw), 'score', 'converged', 'degenerate', 'hvoxels_used', 'columns_used', 'floor_pairs'}; pass the shift "
         "to merge_maps.");
+  m.def("crop_map", &crop_map_of, py::arg("map"), py::arg("tiles"),
+        "A new Map holding the HVoxels of `map` in tiles = (i_begin, j_begin, i_end, j_end), tile keys "
+        "[i_begin, i_end) x [j_begin, j_end), copied exactly; tile (a, b) covers x in [a, a + 1) * TILE_CELLS * "
+        "cell_size, y likewise. The HMAP alone (no 2D grid, no ground patches). Built from every scan that reaches "
+        "those tiles, it equals the one-run map there; maps cut to disjoint ranges merge_maps to their union.");
+  m.attr("TILE_CELLS") = HMap::kTileSize;
 }
 
 PYBIND11_MODULE(_hmap, m) {

@@ -106,3 +106,21 @@ def test_bad_merges_raise_the_librarys_message(yard_params):
     # One live mapper's map on both sides: its lock is taken once (taken twice, it never returned).
     twice = hmap.merge_maps(a, a)
     assert twice.stats()["cells"] == a.stats()["cells"]
+
+
+def test_crop_map_keeps_the_tile_range_exactly_and_parts_merge_back(yard_params):
+    world = yard_points(np.random.default_rng(3))
+    m = session(yard_params, world, np.eye(4), [pose(-3, 0, 1.5, 0), pose(3, 1, 1.5, 0.4)])
+    hv = m.hvoxels()
+    tile_i = hv["i"] // hmap.TILE_CELLS
+    assert hmap.TILE_CELLS == 8 and tile_i.min() < 0 <= tile_i.max()
+    west = hmap.crop_map(m, (-(1 << 27), -(1 << 27), 0, 1 << 27))
+    east = hmap.crop_map(m, tiles=(0, -(1 << 27), 1 << 27, 1 << 27))
+    np.testing.assert_array_equal(west.hvoxels(), hv[tile_i < 0])
+    np.testing.assert_array_equal(east.hvoxels(), hv[tile_i >= 0])
+    assert west.grid() is None and west.stats()["ground_patches"] == 0  # the HMAP alone
+    assert west.cell_size == m.cell_size
+    np.testing.assert_array_equal(hmap.merge_maps(west, east).hvoxels(), hv)
+    assert hmap.crop_map(m, (5, 5, 5, 9)).stats()["hvoxels"] == 0
+    with pytest.raises(hmap.Error, match="ends before it begins"):
+        hmap.crop_map(m, (1, 0, 0, 1))

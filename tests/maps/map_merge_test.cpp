@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <random>
@@ -222,6 +223,77 @@ TEST(MapMerge, SessionsApartMergeToTheOneRunMap) {
   });
   EXPECT_GT(checked, 1000U);
   EXPECT_GT(whole.map().stats().cells, one.map().stats().cells / 4);
+}
+
+// A map built in parts, each from the scans that reach its tiles and cut to them, merges to the
+// one-run map exactly; a part that skips a scan reaching it from beyond its border does not.
+TEST(MapCrop, PartsFromTheScansThatReachThemMergeToTheOneRunMap) {
+  Params p = params(0.2);
+  p.map.max_range = 10.0;
+  const auto scan = [&](Mapper& m, int k) {
+    const Eigen::Vector3d o(-12.0 + 2.0 * k, 0.3 * k, 1.5);
+    Pose T = Pose::Identity();
+    T.translation() = o;
+    m.integrate(scene_points(o, o.x() + 6.0, 100 + k), T);
+  };
+  constexpr int kScans = 12;
+  const auto sensor_x = [](int k) { return -12.0 + 2.0 * k; };
+  Mapper one(p);
+  for (int k = 0; k < kScans; ++k) scan(one, k);
+
+  // Split at tile i = 0 (x = 0): west owns i < 0, east i >= 0. A scan reaches cells within
+  // max_range of its sensor; one cell more for the rounding of keys.
+  constexpr std::int32_t kFar = 1 << 20;
+  const TileRange west{-kFar, -kFar, 0, kFar};
+  const TileRange east{0, -kFar, kFar, kFar};
+  const double reach = p.map.max_range + p.map.cell_size;
+  Mapper west_scans(p), east_scans(p), west_short(p);
+  for (int k = 0; k < kScans; ++k) {
+    if (sensor_x(k) < reach) scan(west_scans, k);
+    if (sensor_x(k) >= -reach) scan(east_scans, k);
+    if (sensor_x(k) < 0.0) scan(west_short, k);
+  }
+  HMap merged = crop_map(west_scans.map(), west);
+  const HMap east_part = crop_map(east_scans.map(), east);
+  const MapMergeStats st = merge_map(merged, east_part);
+  EXPECT_EQ(st.columns_merged, 0U);  // disjoint tiles: every column copied
+  EXPECT_GT(st.columns_added, 1000U);
+  expect_same(one.map(), merged);
+  expect_same(merged, one.map());
+
+  // Without the scans east of the border that reach west of it, the west part is not the one run's.
+  const HMap short_part = crop_map(west_short.map(), west);
+  const HMap west_part = crop_map(one.map(), west);
+  std::size_t differ = 0;
+  west_part.for_each_column([&](const CellKey& k, const ColumnView& c) {
+    const ColumnView o = short_part.column(k);
+    differ += (o.size() != c.size() || !std::equal(c.begin(), c.end(), o.begin())) ? 1 : 0;
+  });
+  EXPECT_GT(differ, 0U);
+}
+
+TEST(MapCrop, KeepsOnlyTheRangeAndRefusesAnInvertedOne) {
+  const Params p = params();
+  const HMap m = random_map(p, 400, 60, 7);
+  const TileRange range{-1, 0, 2, 3};
+  const HMap cut = crop_map(m, range);
+  std::size_t inside = 0;
+  m.for_each_column([&](const CellKey& k, const ColumnView& c) {
+    const ColumnView o = cut.column(k);
+    if (range.contains(HMap::tile_of(k))) {
+      ++inside;
+      ASSERT_EQ(o.size(), c.size());
+      EXPECT_TRUE(std::equal(c.begin(), c.end(), o.begin()));
+    } else {
+      EXPECT_TRUE(o.empty()) << k.i << "," << k.j;
+    }
+  });
+  EXPECT_GT(inside, 0U);
+  EXPECT_EQ(cut.stats().cells, inside);
+  EXPECT_EQ(cut.params().map.cell_size, p.map.cell_size);
+  EXPECT_TRUE(crop_map(m, TileRange{3, 3, 3, 9}).empty());  // no tile
+  EXPECT_TRUE(crop_map(HMap(p), range).empty());
+  EXPECT_THROW((void)crop_map(m, TileRange{2, 0, 1, 3}), Error);
 }
 
 }  // namespace

@@ -103,4 +103,22 @@ HMap shifted_map(const HMap& map, const PlanarShift& shift, const MemoryBudget& 
   return out;
 }
 
+HMap crop_map(const HMap& map, const TileRange& range) {
+  if (range.i_begin > range.i_end || range.j_begin > range.j_end) {
+    throw Error(format("cutting a map: the tile range [%d, %d) x [%d, %d) ends before it begins", range.i_begin,
+                       range.i_end, range.j_begin, range.j_end));
+  }
+  HMap out(map.params());
+  map.for_each_tile([&](const CellKey& tile_key, const HMap::Tile& tile) {
+    if (!range.contains(tile_key)) return;
+    for (int local = 0; local < HMap::kTileCells; ++local) {
+      const ColumnView source = tile.column(local);
+      if (source.empty()) continue;
+      TileColumn column = out.column_for_update(HMap::key_in_tile(tile_key, local));
+      for (const HVoxel& v : source) column.push_back(v);
+    }
+  });
+  return out;
+}
+
 }  // namespace hmap

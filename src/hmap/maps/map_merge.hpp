@@ -1,8 +1,10 @@
 #pragma once
 // Maps of different sessions made one: one map's HVoxels merged into another's column by column
-// (III-D, as a scan's are), and a map moved rigidly in the plane before it is merged.
+// (III-D, as a scan's are), and a map moved rigidly in the plane before it is merged. A map cut to
+// a range of tiles, so that one built in parts (each its own tiles) is put together by merging.
 
 #include <cstddef>
+#include <cstdint>
 
 #include "hmap/maps/hmap.hpp"
 
@@ -14,6 +16,18 @@ struct PlanarShift {
   double y = 0.0;    ///< [m]
   double z = 0.0;    ///< [m]
   double yaw = 0.0;  ///< [rad]
+};
+
+/// Tiles [i_begin, i_end) × [j_begin, j_end), in tile keys (HMap::tile_of: cell key >> kTileBits).
+struct TileRange {
+  std::int32_t i_begin = 0;
+  std::int32_t j_begin = 0;
+  std::int32_t i_end = 0;
+  std::int32_t j_end = 0;
+
+  [[nodiscard]] bool contains(const CellKey& tile_key) const {
+    return tile_key.i >= i_begin && tile_key.i < i_end && tile_key.j >= j_begin && tile_key.j < j_end;
+  }
 };
 
 /// What merge_map did.
@@ -39,5 +53,12 @@ MapMergeStats merge_map(HMap& into, const HMap& from, const MemoryBudget& budget
 /// without a turn moves every column exactly. Throws hmap::Error for a shift that is not finite,
 /// that would move cells beyond the key range, or a result beyond `budget`.
 [[nodiscard]] HMap shifted_map(const HMap& map, const PlanarShift& shift, const MemoryBudget& budget = {});
+
+/// The columns of `map` in the tiles of `range`, copied exactly, with its parameters; the rest
+/// left out. A column is changed only by the scans whose points or rays reach its cell, so the
+/// map of every scan that reaches a range, cut to it, equals the whole run's map there, and maps
+/// cut to disjoint ranges merge (merge_map) without touching each other's columns. Throws
+/// hmap::Error for a range with begin > end.
+[[nodiscard]] HMap crop_map(const HMap& map, const TileRange& range);
 
 }  // namespace hmap
