@@ -394,9 +394,9 @@ void add_slam_command(CLI::App& app) {
                   "export --mcap writes it, with the 2D grid derived from the map's columns and one /tf per scan at its "
                   "stamp (times.txt of a KITTI folder, a bag's; else 0)");
   cmd->add_flag("--loop-closure", opts->loop_closure,
-                "Close loops (slam.loop_closure=1): key frames, place recognition, verification by map alignment, a "
-                "pose graph; the poses corrected and the map rebuilt; loop_closures.csv");
-  cmd->add_flag("--no-loop-closure", opts->no_loop_closure, "No loop closure (slam.loop_closure=0)");
+                "Close loops (slam.loop_closure=1, the default): key frames, place recognition, verification by map "
+                "alignment, a pose graph; the poses corrected and the map rebuilt; loop_closures.csv");
+  cmd->add_flag("--no-loop-closure", opts->no_loop_closure, "No loop closure (slam.loop_closure=0): the scan-to-map poses as they are");
   opts->params.add_to(*cmd);
 #ifdef HMAP_HAVE_VIEW
   opts->view.add_to(*cmd);

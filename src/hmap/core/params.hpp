@@ -127,7 +127,7 @@ struct SlamParams {
                                            ///< 0: off
   // Loop closure (slam/loop_closure.hpp, docs/SLAM.md "Loop closure"): key frames, place
   // recognition on their sub-maps, verification by map alignment, a pose graph, the map rebuilt.
-  int loop_closure = 0;                    ///< [-] 1: on (hmap slam --loop-closure), 0: off
+  int loop_closure = 1;                    ///< [-] 1: on (hmap slam; --no-loop-closure: 0), 0: off
   double keyframe_distance = 5.0;          ///< [m] a key frame every this far along the estimated path
   double keyframe_rotation = 0.5;          ///< [rad] or after turning this much since the last one
   int loop_submap_scans = 5;               ///< [-] scans merged into a key frame's sub-map at most (it and the next ones)
