@@ -236,7 +236,7 @@ std::vector<ParamRef> param_refs(Params& p) {
   r.push_back(ref_int("slam.loop_candidates", "-", "loop candidates verified per key frame at most",
                       s.loop_candidates, closed(1.0, 50.0)));
   r.push_back(ref("slam.loop_search_translation", "m",
-                  "half-width of the loop verification's coarse search in x and y; at most 100 cells",
+                  "half-width of the loop verification's coarse search in x and y (at most 100 cells are searched)",
                   s.loop_search_translation, closed(0.0, 20.0)));
   r.push_back(ref("slam.loop_search_rotation", "rad", "half-width of the loop verification's coarse search in yaw",
                   s.loop_search_rotation, closed(0.0, kPi)));
@@ -280,8 +280,6 @@ void validate(const Params& p) {
           "an odd number in [1, 9]");
   // The coarse search walks (2n + 1)^2 positions per yaw step with n = coarse_translation / (2 cells).
   require(s.coarse_translation <= 100.0 * m.cell_size, "slam.coarse_translation", s.coarse_translation,
-          "at most 100 cells (100 * map.cell_size)");
-  require(s.loop_search_translation <= 100.0 * m.cell_size, "slam.loop_search_translation", s.loop_search_translation,
           "at most 100 cells (100 * map.cell_size)");
 }
 

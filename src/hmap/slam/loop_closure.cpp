@@ -60,7 +60,9 @@ struct LoopCloser::State {
     GraphPose pose;          // of the sensor at the key frame's scan, as estimated
     Pose T_map_level;        // the sub-map's frame: the key frame's x, y, z and yaw, level
     double path = 0.0;       // [m] along the estimated path
-    std::unique_ptr<Mapper> submap;
+    // The sub-map while its scans come (the mapper's scan buffers are megabytes), then the map alone.
+    std::unique_ptr<Mapper> builder;
+    std::optional<HMap> submap;
     int submap_scans = 0;
     PlaceDescriptor descriptor;
   };
@@ -113,20 +115,22 @@ void LoopCloser::add_scan(std::span<const Point3f> points_sensor, const Pose& T_
     // (parking long route: 61.5 ms per key frame with it).
     Params submap_params = s.params;
     submap_params.map.free_space = FreeSpaceMode::kNone;
-    kf.submap = std::make_unique<Mapper>(submap_params);
+    kf.builder = std::make_unique<Mapper>(submap_params);
     s.keyframes.push_back(std::move(kf));
   }
   State::KeyFrame& kf = s.keyframes.back();
-  if (kf.submap && kf.submap_scans < sp.loop_submap_scans) {
-    (void)kf.submap->integrate(points_sensor, kf.T_map_level.inverse() * T_map_sensor);
+  if (kf.builder && kf.submap_scans < sp.loop_submap_scans) {
+    (void)kf.builder->integrate(points_sensor, kf.T_map_level.inverse() * T_map_sensor);
     ++kf.submap_scans;
   }
 }
 
 void LoopCloser::State::finish_keyframe(std::size_t k) {
   KeyFrame& kf = keyframes[k];
-  if (!kf.descriptor.empty()) return;
-  kf.descriptor = describe_place(kf.submap->map(), {}, {params.map.max_range, kRings, kSectors});
+  if (kf.submap) return;
+  kf.submap.emplace(std::move(kf.builder->map()));
+  kf.builder.reset();
+  kf.descriptor = describe_place(*kf.submap, {}, {params.map.max_range, kRings, kSectors});
   search_loops(k);
 }
 
@@ -134,7 +138,7 @@ void LoopCloser::State::search_loops(std::size_t k) {
   const auto t0 = std::chrono::steady_clock::now();
   const auto& sp = params.slam;
   KeyFrame& now = keyframes[k];
-  if (now.submap->map().empty()) return;
+  if (now.submap->empty()) return;
   // Candidates: far back along the path, near the drifted estimate, near in descriptor.
   struct Candidate {
     std::size_t keyframe;
@@ -145,7 +149,7 @@ void LoopCloser::State::search_loops(std::size_t k) {
     const KeyFrame& old = keyframes[j];
     if (now.path - old.path < sp.loop_min_travel) break;  // key frames are in path order
     if (std::hypot(now.pose.x - old.pose.x, now.pose.y - old.pose.y) > sp.loop_search_radius) continue;
-    if (old.submap->map().empty()) continue;
+    if (old.submap->empty()) continue;
     const PlaceMatch m = compare_places(old.descriptor, now.descriptor);
     if (m.distance <= sp.loop_max_descriptor_distance) candidates.push_back({j, m});
   }
@@ -157,18 +161,23 @@ void LoopCloser::State::search_loops(std::size_t k) {
     const KeyFrame& old = keyframes[c.keyframe];
     MapAlignOptions options;
     options.guess = {0.0, 0.0, 0.0, c.match.yaw};
-    options.search_translation = sp.loop_search_translation;
+    // The coarse search walks (2n + 1)² cells' positions: align_maps takes at most 100 cells, so
+    // that a small cell (--cell 0.02) does not make the default 4 m refused.
+    options.search_translation = std::min(sp.loop_search_translation, 100.0 * params.map.cell_size);
     options.search_rotation = sp.loop_search_rotation;
     ++verified;
     MapAlignResult r;
     try {
-      r = align_maps(old.submap->map(), now.submap->map(), options);
+      r = align_maps(*old.submap, *now.submap, options);
     } catch (const Error&) {
       continue;  // no overlap at the guess: no match
     }
     if (r.match.skipped || r.match.score < sp.loop_min_score) continue;
     // A result at the edge of the search window is the window's best, not a match.
-    if (std::hypot(r.shift.x, r.shift.y) > sp.loop_search_translation * std::numbers::sqrt2 - params.map.cell_size) continue;
+    if (options.search_translation > 0.0 &&
+        std::max(std::abs(r.shift.x), std::abs(r.shift.y)) > options.search_translation - params.map.cell_size) {
+      continue;
+    }
     LoopClosure closure;
     closure.keyframe_old = c.keyframe;
     closure.keyframe_new = k;
