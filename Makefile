@@ -19,7 +19,7 @@ DEBS := cmake ninja-build g++ libeigen3-dev libnanoflann-dev libtbb-dev libcli11
         python3-nav-msgs python3-tf2-msgs libbz2-dev clang libclang-rt-14-dev \
         pybind11-dev python3-dev python3-numpy python3-pytest python3-pip python3-setuptools python3-wheel python3-matplotlib \
         python3-dask python3-distributed \
-        liblz4-dev libsqlite3-dev nodejs npm libcpp-httplib-dev libjs-three
+        liblz4-dev libsqlite3-dev nodejs npm libcpp-httplib-dev libjs-three libceres-dev
 # What `make test` adds: the browser that shows the viewer's page (tests/serve/browser_test.cpp,
 # driven by Node, which DEBS holds).
 TEST_DEBS := chromium

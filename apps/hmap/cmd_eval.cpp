@@ -105,6 +105,8 @@ void run_eval_traj(const EvalTrajOptions& o) {
                      {"ate_max_aligned_m", m.ate_max_aligned_m},
                      {"ate_rmse_origin_m", m.ate_rmse_origin_m},
                      {"ate_max_origin_m", m.ate_max_origin_m},
+                     {"end_error_origin_m", m.end_error_origin_m},
+                     {"end_error_origin_planar_m", m.end_error_origin_planar_m},
                      {"rpe_frame_trans_rmse_m", m.rpe_frame_trans_rmse_m},
                      {"rpe_frame_rot_rmse_deg", m.rpe_frame_rot_rmse_deg},
                      {"rpe_trans_pct", number(m.rpe_trans_pct)},
@@ -118,6 +120,7 @@ void run_eval_traj(const EvalTrajOptions& o) {
   std::printf("%zu frames, %.1f m of true path\n", m.frames, m.path_length_m);
   std::printf("  ATE RMSE %.4f m (max %.4f m); after SE(3) alignment %.4f m (max %.4f m); from the first pose %.4f m (max %.4f m)\n",
               m.ate_rmse_m, m.ate_max_m, m.ate_rmse_aligned_m, m.ate_max_aligned_m, m.ate_rmse_origin_m, m.ate_max_origin_m);
+  std::printf("  End point from the first pose: %.4f m (horizontal %.4f m)\n", m.end_error_origin_m, m.end_error_origin_planar_m);
   std::printf("  RPE per frame: %.4f m, %.4f deg (RMSE)\n", m.rpe_frame_trans_rmse_m, m.rpe_frame_rot_rmse_deg);
   std::printf("  RPE per distance (%s, %zu segments): %.3f %% translation, %.5f deg/m rotation\n",
               fraction ? "10-80 % of the path, shorter than KITTI's 100 m" : "KITTI's 100-800 m", m.rpe_segments,

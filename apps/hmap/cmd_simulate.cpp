@@ -22,6 +22,7 @@ struct SimulateOptions {
   std::string scene_file;  ///< a JSON scene instead of the built-in spec.scene
   std::string out;
   bool route_km_given = false;
+  std::string route = "random";
 };
 
 void run_simulate(const SimulateOptions& o) {
@@ -29,6 +30,7 @@ void run_simulate(const SimulateOptions& o) {
   if (o.route_km_given && !city) throw Error("--route-km is for --scene city (the other routes have their own length)");
   if (city && o.spec.long_route) throw Error("--long-route is for --scene parking; the city's drive takes --route-km");
   if (city) sim::check_route_km(o.spec.route_km);
+  if (o.route != "random" && !city) throw Error("--route is for --scene city");
   prepare_output_set(o.out, {"velodyne/", "poses.txt", "times.txt", "odometry.txt", "truth.ply", "truth_seen.ply", "truth_ground.ply", "imu.txt"},
                      "simulate");  // before the work
   Progress progress("simulating", 1);
@@ -45,6 +47,7 @@ void run_simulate(const SimulateOptions& o) {
     }
   }();
   sim::SimulationSpec spec = o.spec;
+  if (o.route == "loop") spec.city_route = sim::SimulationSpec::CityRoute::kLoop;
   if (!o.scene_file.empty()) spec.scene.clear();  // a scene of our own: the office robot's route
   spec.truth = !city;  // a town's dense truth would be gigabytes; its drive has none
   sim::SimulatedRecording rec;
@@ -120,6 +123,11 @@ void add_simulate_command(CLI::App& app) {
                                    "city: length of the drive through the streets [km], 0.1 to 20 (turns at random "
                                    "intersections from a fixed seed, coming back over streets driven before)")
                        ->capture_default_str();
+  cmd->add_option("--route", opts->route,
+                  "city: 'random' (a random walk of --route-km) or 'loop' (around a rectangle of blocks at least "
+                  "--route-km long, back to the start and 40 m on: for loop closure)")
+      ->check(CLI::IsMember({"random", "loop"}))
+      ->capture_default_str();
   cmd->add_option("--seed", opts->spec.seed, "Noise seed")->check(kCount)->capture_default_str();
   cmd->add_option("--truth-spacing", opts->spec.truth_spacing, "Spacing of the true surface sample [m]")->capture_default_str();
   cmd->add_option("--imu-rate", opts->spec.imu_rate,

@@ -19,6 +19,7 @@
 #include "hmap/io/png.hpp"
 #include "hmap/io/poses.hpp"
 #include "hmap/slam/hmap_slam.hpp"
+#include "hmap/slam/loop_closure.hpp"
 #include "hmap/render/render.hpp"
 #ifdef HMAP_HAVE_VIEW
 #include "live_view.hpp"
@@ -45,6 +46,8 @@ struct SlamOptions : InputOptions {
   std::vector<double> start;        ///< X Y YAW_DEG: where the first scan is looked for in it
   double search = 5.0;              ///< [m] half-width of that search in x and y
   double search_yaw_deg = 180.0;    ///< [deg] half-width in yaw
+  bool loop_closure = false;     ///< --loop-closure: slam.loop_closure=1
+  bool no_loop_closure = false;  ///< --no-loop-closure: slam.loop_closure=0
 #ifdef HMAP_HAVE_VIEW
   LiveViewOptions view;
 #endif
@@ -89,6 +92,8 @@ void run_slam(const SlamOptions& o) {
   if (!o.imu_rpy.empty()) {
     sources.values = {{"slam.imu_roll", o.imu_rpy[0]}, {"slam.imu_pitch", o.imu_rpy[1]}, {"slam.imu_yaw", o.imu_rpy[2]}};
   }
+  if (o.loop_closure && o.no_loop_closure) throw Error("--loop-closure and --no-loop-closure exclude each other");
+  if (o.loop_closure || o.no_loop_closure) sources.values.emplace_back("slam.loop_closure", o.loop_closure ? 1.0 : 0.0);
   // From the named preset (or outdoor) first, so that a bad value is refused before any work.
   Params params = [&] {
     ParamSources named = sources;
@@ -118,7 +123,7 @@ void run_slam(const SlamOptions& o) {
   } else if (!o.start.empty() || o.search != 5.0 || o.search_yaw_deg != 180.0) {
     throw Error("--start, --search and --search-yaw place the first scan in a continued map: they need --continue");
   }
-  prepare_output_set(o.out, {"poses.txt", "poses_tum.txt", "matches.csv", "map.hmap", "trajectory.png"}, "slam");  // before the work
+  prepare_output_set(o.out, {"poses.txt", "poses_tum.txt", "matches.csv", "loop_closures.csv", "map.hmap", "trajectory.png"}, "slam");  // before the work
   if (!o.mcap.empty()) check_mcap_output(o.mcap);
   const ScanSource src = o.open_inputs(/*poses_required=*/false);  // no --poses here
   // Defaults the first scan can tell (the ring spacing), for parameters left at the preset's value.
@@ -196,6 +201,9 @@ void run_slam(const SlamOptions& o) {
     holder.emplace(params);
   }
   slam::HmapSlam& slam = *holder;
+  // Loop closure rebuilds the map from this run's scans: a continued map's saved part would be lost.
+  std::optional<slam::LoopCloser> loops;
+  if (params.slam.loop_closure != 0 && !old) loops.emplace(params);
   // The first scan defines the map frame; with a reference it starts at the reference's first
   // pose (x, y, yaw below; its height here), so that ATE needs no alignment. A continued map's
   // frame is the saved one.
@@ -220,6 +228,7 @@ void run_slam(const SlamOptions& o) {
   std::vector<Eigen::Vector3d> path;
 #endif
   Progress progress("slam", n);
+  double ms_loops = 0.0;  // key frames, sub-maps, place search and verification during the run
   std::size_t deskewed = 0;
   std::size_t timed = 0;  // scans whose points carry a time
   // From a bag or an RGB-D folder, scan k + 1 is decoded while scan k is matched; the first, read
@@ -288,6 +297,11 @@ void run_slam(const SlamOptions& o) {
                     step.imu_used ? 1 : 0, step.tilt_hypotheses, step.tilt_from_floor ? 1 : 0, m.heading_only ? 1 : 0, ms);
     }
     estimate.push_back(step.T_map_sensor);
+    if (loops) {
+      const auto t_loop = Clock::now();
+      loops->add_scan(cloud, step.T_map_sensor);
+      ms_loops += ms_since(t_loop);
+    }
     if (step.matched) {
       converged += step.match.converged ? 1 : 0;
       degenerate += step.match.degenerate ? 1 : 0;
@@ -307,15 +321,43 @@ void run_slam(const SlamOptions& o) {
   }
   progress.finish();
 
+  // Loop closure: the pose graph over the key frames, every pose corrected, the map rebuilt from
+  // the scans at the corrected poses (read again; the whole map: docs/SLAM.md).
+  std::optional<slam::LoopClosureResult> closed;
+  std::optional<HMap> rebuilt;
+  double ms_graph = 0.0;
+  double ms_rebuild = 0.0;
+  std::string loop_log = "keyframe_old,keyframe_new,scan_old,scan_new,descriptor_distance,descriptor_yaw,score,x,y,z,yaw,"
+                         "drift_translation,drift_yaw,ms\n";
+  if (loops) {
+    const auto t_graph = Clock::now();
+    closed = loops->close();
+    ms_graph = ms_since(t_graph);
+    for (const slam::LoopClosure& c : closed->closures) {
+      loop_log += format("%zu,%zu,%zu,%zu,%.4f,%.5f,%.4f,%.4f,%.4f,%.4f,%.5f,%.4f,%.5f,%.2f\n", c.keyframe_old, c.keyframe_new,
+                         c.scan_old, c.scan_new, c.descriptor_distance, c.descriptor_yaw, c.score, c.T_old_new.x,
+                         c.T_old_new.y, c.T_old_new.z, c.T_old_new.yaw, c.drift_translation, c.drift_yaw, c.ms);
+    }
+    if (!closed->closures.empty()) {
+      estimate = closed->T_map_sensor;
+      const auto t_rebuild = Clock::now();
+      CloudReadStats again;
+      rebuilt = slam::rebuild_map(params, estimate, [&](std::size_t k, PointCloud& out) { out = src.read(k, again); });
+      ms_rebuild = ms_since(t_rebuild);
+    }
+  }
+  const HMap& final_map = rebuilt ? *rebuilt : slam.map();
+
   // The poses, the map and the picture are one set: a kill leaves the old folder or the new one.
   write_folder_atomic(o.out, [&](const std::filesystem::path& dir) {
     write_poses_kitti(dir / "poses.txt", estimate);
     write_poses_tum(dir / "poses_tum.txt", times, estimate);
     write_file_atomic(dir / "matches.csv", log);
-    save_hmap(dir / "map.hmap", slam.map());
-    const render::HeightRange range = render::resolve_range(slam.map(), {});
+    if (loops) write_file_atomic(dir / "loop_closures.csv", loop_log);
+    save_hmap(dir / "map.hmap", final_map);
+    const render::HeightRange range = render::resolve_range(final_map, {});
     render::TopViewport vp;
-    RgbImage picture = render::render_top(slam.map(), range, 2000, vp, 2.0);
+    RgbImage picture = render::render_top(final_map, range, 2000, vp, 2.0);
     std::vector<render::PathLayer> layers;
     if (truth) layers.push_back({&*truth, 255, 255, 255, "truth (--gt)"});
     layers.push_back({&estimate, 255, 0, 255, "estimate"});
@@ -327,7 +369,7 @@ void run_slam(const SlamOptions& o) {
   const std::size_t matches = old ? n : (n > 0 ? n - 1 : 0);
   const double matched = matches > 0 ? static_cast<double>(matches) : 1.0;
   const double scored = matches > skipped ? static_cast<double>(matches - skipped) : 1.0;  // mean M_H over these
-  const MapStats st = slam.map().stats();
+  const MapStats st = final_map.stats();
   // Told with the result, not before the work: an error stays the one line of its run.
   if (!src.description.empty()) std::printf("input: %s\n", src.description.c_str());
   std::printf(
@@ -362,17 +404,34 @@ void run_slam(const SlamOptions& o) {
                   "--poses %s/poses.txt adds the scans to all its layers.",
                   o.continue_from.c_str(), o.out.c_str());
     }
+    if (params.slam.loop_closure != 0) std::printf(" Loop closure is off for a continued map (its rebuild would drop the saved map).");
     std::printf("\n");
+  }
+  if (closed) {
+    const std::size_t kfs = closed->keyframes;
+    double ms_worst = 0.0;
+    for (const auto& c : closed->closures) ms_worst = std::max(ms_worst, c.ms);
+    std::printf("Loop closure: %zu key frames, %zu loops closed (%zu candidates verified), %.1f ms per key frame for "
+                "sub-maps, place search and verification (%.1f ms at most for a key frame that closed a loop)",
+                kfs, closed->closures.size(), closed->candidates_verified, kfs > 0 ? ms_loops / static_cast<double>(kfs) : 0.0,
+                ms_worst);
+    if (!closed->closures.empty()) {
+      std::printf("; pose graph %.1f ms (%d iterations), poses moved by up to %.2f m (the last by %.2f m), the whole map "
+                  "rebuilt from the scans in %.2f s; %s/loop_closures.csv",
+                  ms_graph, closed->graph.iterations, closed->max_correction, closed->end_correction, ms_rebuild / 1000.0,
+                  o.out.c_str());
+    }
+    std::printf(".\n");
   }
   if (timed > 0 && params.slam.deskew == 0) {
     std::printf("%zu scans carry a time per point but were not deskewed (slam.deskew=0).\n", timed);
   }
   // SLAM keeps no 2D grid: the one export would derive from the map's columns.
   // /tf at the scans' stamps when they are real (times.txt, a bag's), else all at 0.
-  if (!o.mcap.empty()) write_run_mcap(o.mcap, slam.map(), {}, nullptr, estimate, stamped ? std::span<const double>(times) : std::span<const double>{});
+  if (!o.mcap.empty()) write_run_mcap(o.mcap, final_map, {}, nullptr, estimate, stamped ? std::span<const double>(times) : std::span<const double>{});
 #ifdef HMAP_HAVE_VIEW
   if (o.view.enabled) {
-    live.update(slam.map(), {}, nullptr, path, format("done: %zu scans, written to %s", n, o.out.c_str()), true);
+    live.update(final_map, {}, nullptr, path, format("done: %zu scans, written to %s", n, o.out.c_str()), true);
     live.serve_until_stopped();
   }
 #endif
@@ -417,6 +476,10 @@ void add_slam_command(CLI::App& app) {
   cmd->add_option("--search-yaw", opts->search_yaw_deg,
                   "With --continue: half-width of the first scan's search in yaw [deg], 0-180")
       ->capture_default_str();
+  cmd->add_flag("--loop-closure", opts->loop_closure,
+                "Close loops (slam.loop_closure=1, the default): key frames, place recognition, verification by map "
+                "alignment, a pose graph; the poses corrected and the map rebuilt; loop_closures.csv");
+  cmd->add_flag("--no-loop-closure", opts->no_loop_closure, "No loop closure (slam.loop_closure=0): the scan-to-map poses as they are");
   opts->params.add_to(*cmd);
 #ifdef HMAP_HAVE_VIEW
   opts->view.add_to(*cmd);

@@ -539,6 +539,8 @@ py::dict trajectory_dict(const py::handle& truth, const py::handle& estimate, co
   d["ate_max_aligned_m"] = m.ate_max_aligned_m;
   d["ate_rmse_origin_m"] = m.ate_rmse_origin_m;
   d["ate_max_origin_m"] = m.ate_max_origin_m;
+  d["end_error_origin_m"] = m.end_error_origin_m;
+  d["end_error_origin_planar_m"] = m.end_error_origin_planar_m;
   d["T_truth_estimate"] = matrix_array(m.T_truth_estimate);
   d["rpe_frame_trans_rmse_m"] = m.rpe_frame_trans_rmse_m;
   d["rpe_frame_rot_rmse_deg"] = m.rpe_frame_rot_rmse_deg;

@@ -383,6 +383,31 @@ namespace {
 
 // RGB-D frames feed every command, not only `map`: SLAM takes the camera poses' attitude, PVOX
 // the poses as its measurements.
+// slam --loop-closure: a short drive closes nothing, says so and writes the (empty) table of
+// closures; conflicting flags and a bad loop parameter are one line each.
+TEST_F(CliTest, SlamLoopClosureFlagsAndSummary) {
+  const CmdResult sim = run("simulate --scene parking --sensor vlp16 --frames 6 --stride 5 --out " + path("seq"));
+  ASSERT_EQ(sim.code, 0) << sim.out;
+  const CmdResult on = run("slam --kitti " + path("seq") + " --loop-closure --out " + path("slam"));
+  ASSERT_EQ(on.code, 0) << on.out;
+  EXPECT_NE(on.out.find("Loop closure: "), std::string::npos) << on.out;
+  EXPECT_NE(on.out.find(" 0 loops closed"), std::string::npos) << on.out;
+  std::ifstream csv(dir_ / "slam" / "loop_closures.csv");
+  std::string header;
+  std::getline(csv, header);
+  EXPECT_EQ(header.rfind("keyframe_old,keyframe_new,scan_old,scan_new,", 0), 0U) << header;
+  const CmdResult off = run("slam --kitti " + path("seq") + " --no-loop-closure --out " + path("slam_off"));
+  ASSERT_EQ(off.code, 0) << off.out;
+  EXPECT_EQ(off.out.find("Loop closure: "), std::string::npos) << off.out;
+  const CmdResult both = run("slam --kitti " + path("seq") + " --loop-closure --no-loop-closure --out " + path("x"));
+  EXPECT_EQ(both.code, 2);
+  EXPECT_EQ(lines(both.out), 1U) << both.out;
+  const CmdResult bad = run("slam --kitti " + path("seq") + " --set slam.loop_min_score=2 --out " + path("x"));
+  EXPECT_EQ(bad.code, 2);
+  EXPECT_EQ(lines(bad.out), 1U) << bad.out;
+  EXPECT_NE(bad.out.find("slam.loop_min_score"), std::string::npos) << bad.out;
+}
+
 TEST_F(CliTest, SlamAndPvoxReadRgbdFrames) {
   HMAP_REQUIRE_DATA("rgbd_7scenes");
   const std::string rgbd = (test::data_dir() / "rgbd_7scenes").string();

@@ -141,6 +141,11 @@ TEST(TrajectoryMetricsTest, FromTheFirstPoseTheWorldFramesDifferenceGoes) {
   double sq = 0.0;
   for (int i = 0; i <= 10; ++i) sq += std::pow(2.0 * i * std::sin(M_PI / 180.0), 2);
   EXPECT_NEAR(m.ate_rmse_origin_m, std::sqrt(sq / 11.0), 1e-9);
+  // The end point: (0, 10, 0) turned 2° about x is (0, 10 cos 2°, 10 sin 2°); its horizontal
+  // part of the error is 10 (1 − cos 2°).
+  EXPECT_NEAR(m.end_error_origin_m, 2.0 * 10.0 * std::sin(M_PI / 180.0), 1e-9);
+  EXPECT_NEAR(m.end_error_origin_planar_m, 10.0 * (1.0 - std::cos(2.0 * M_PI / 180.0)), 1e-9);
+  EXPECT_NEAR(same.end_error_origin_m, 0.0, 1e-9);
 }
 
 TEST(TrajectoryMetricsTest, RigidAlignmentRecoversRandomTransforms) {

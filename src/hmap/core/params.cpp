@@ -218,6 +218,30 @@ std::vector<ParamRef> param_refs(Params& p) {
                       "1: points with a time moved to one time by constant velocity (odometry's or an IMU's, to "
                       "the scan's time; else the last two estimates', to the sweep's middle); 0: off",
                       s.deskew, closed(0.0, 1.0)));
+  r.push_back(ref_int("slam.loop_closure", "-", "1: loop closure (key frames, place recognition, pose graph, map rebuilt); 0: off",
+                      s.loop_closure, closed(0.0, 1.0)));
+  r.push_back(ref("slam.keyframe_distance", "m", "a key frame every this far along the estimated path",
+                  s.keyframe_distance, above(0.0, 10000.0)));
+  r.push_back(ref("slam.keyframe_rotation", "rad", "or after turning this much since the last key frame",
+                  s.keyframe_rotation, above(0.0, kPi)));
+  r.push_back(ref_int("slam.loop_submap_scans", "-", "scans merged into a key frame's sub-map at most",
+                      s.loop_submap_scans, closed(1.0, 100.0)));
+  r.push_back(ref("slam.loop_min_travel", "m", "a loop candidate is at least this far back along the path",
+                  s.loop_min_travel, closed(0.0, 1e6)));
+  r.push_back(ref("slam.loop_search_radius", "m", "a loop candidate is at most this far from the drifted estimate",
+                  s.loop_search_radius, above(0.0, 1e5)));
+  r.push_back(ref("slam.loop_max_descriptor_distance", "-",
+                  "place descriptors farther apart than this (0 same, 1 unlike) are no loop candidate",
+                  s.loop_max_descriptor_distance, above(0.0, 1.0)));
+  r.push_back(ref_int("slam.loop_candidates", "-", "loop candidates verified per key frame at most",
+                      s.loop_candidates, closed(1.0, 50.0)));
+  r.push_back(ref("slam.loop_search_translation", "m",
+                  "half-width of the loop verification's coarse search in x and y (at most 100 cells are searched)",
+                  s.loop_search_translation, closed(0.0, 20.0)));
+  r.push_back(ref("slam.loop_search_rotation", "rad", "half-width of the loop verification's coarse search in yaw",
+                  s.loop_search_rotation, closed(0.0, kPi)));
+  r.push_back(ref("slam.loop_min_score", "-", "mean M_H of a loop verification under which the candidate is refused",
+                  s.loop_min_score, closed(0.0, 1.0)));
   return r;
 }
 

@@ -125,6 +125,19 @@ struct SlamParams {
                                            ///< velocity: odometry's (or an IMU's) to the scan's reference time,
                                            ///< else the last two estimates' to the sweep's middle (docs/SLAM.md);
                                            ///< 0: off
+  // Loop closure (slam/loop_closure.hpp, docs/SLAM.md "Loop closure"): key frames, place
+  // recognition on their sub-maps, verification by map alignment, a pose graph, the map rebuilt.
+  int loop_closure = 1;                    ///< [-] 1: on (hmap slam; --no-loop-closure: 0), 0: off
+  double keyframe_distance = 5.0;          ///< [m] a key frame every this far along the estimated path
+  double keyframe_rotation = 0.5;          ///< [rad] or after turning this much since the last one
+  int loop_submap_scans = 5;               ///< [-] scans merged into a key frame's sub-map at most (it and the next ones)
+  double loop_min_travel = 50.0;           ///< [m] a candidate is at least this far back along the path
+  double loop_search_radius = 30.0;        ///< [m] and at most this far from the drifted estimate
+  double loop_max_descriptor_distance = 0.3;  ///< [-] place descriptors farther apart (0 same, 1 unlike) are no candidate
+  int loop_candidates = 3;                 ///< [-] the nearest candidates verified per key frame at most
+  double loop_search_translation = 4.0;    ///< [m] half-width of the verification's coarse search in x and y
+  double loop_search_rotation = 0.2;       ///< [rad] half-width of its coarse search in yaw about the descriptor's yaw
+  double loop_min_score = 0.4;             ///< [-] mean M_H of the verification under which a candidate is refused
 };
 
 /// All parameters together.

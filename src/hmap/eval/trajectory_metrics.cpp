@@ -147,6 +147,11 @@ TrajectoryMetrics evaluate_trajectory(const PoseList& truth, const PoseList& est
   for (std::size_t i = 0; i < n; ++i) {
     errors_origin[i] = ((truth0_inv * truth[i]).translation() - (estimate0_inv * estimate[i]).translation()).norm();
   }
+  if (n > 0) {
+    const Eigen::Vector3d end = (truth0_inv * truth[n - 1]).translation() - (estimate0_inv * estimate[n - 1]).translation();
+    m.end_error_origin_m = end.norm();
+    m.end_error_origin_planar_m = end.head<2>().norm();
+  }
   const Stats ate_origin = stats_of(std::move(errors_origin));
   m.ate_rmse_origin_m = ate_origin.rmse;
   m.ate_max_origin_m = ate_origin.max;

@@ -57,6 +57,10 @@ struct TrajectoryMetrics {
   // in every later one.
   double ate_rmse_origin_m = 0.0;
   double ate_max_origin_m = 0.0;
+  /// The last frame's e_i from the first pose: on a route that comes back to its start, the
+  /// end-to-start error (what a loop closure removes); and its horizontal part (x, y of the first frame).
+  double end_error_origin_m = 0.0;
+  double end_error_origin_planar_m = 0.0;
   /// Least-squares rigid transform (no scale) from the estimate's world frame to the truth's.
   Pose T_truth_estimate = Pose::Identity();
 

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "hmap/core/error.hpp"
+#include "hmap/core/format.hpp"
 #include "hmap/sim/composites.hpp"
 
 namespace hmap::sim {
@@ -218,6 +219,25 @@ std::vector<Eigen::Vector3d> city_car_route(const CityParams& c, double length_m
     driven += p;
   }
   return route;
+}
+
+std::vector<Eigen::Vector3d> city_loop_route(const CityParams& c, double length_m, double overlap_m) {
+  validate(c);
+  if (!(length_m > 0.0 && length_m <= 100000.0)) throw Error("city loop: length must be in (0, 100000] m");
+  if (!(overlap_m >= 0.0)) throw Error("city loop: overlap must not be negative");
+  const double p = city_pitch(c);
+  int a = 1;
+  int b = 1;
+  while (2.0 * (a + b) * p < length_m) (a == b ? a : b) += 1;
+  if (a > c.blocks) {
+    throw Error(format("city loop: %.0f m needs a rectangle of %d x %d blocks; the town has %d x %d", length_m, a, b, c.blocks, c.blocks));
+  }
+  overlap_m = std::min(overlap_m, a * p);
+  const int i0 = (c.blocks - a) / 2;
+  const int j0 = (c.blocks - b) / 2;
+  const auto point = [&](double x, double y) { return Eigen::Vector3d(x, y, city_ground_z(c, x, y)); };
+  return {point(i0 * p, j0 * p),       point((i0 + a) * p, j0 * p), point((i0 + a) * p, (j0 + b) * p),
+          point(i0 * p, (j0 + b) * p), point(i0 * p, j0 * p),       point(i0 * p + overlap_m, j0 * p)};
 }
 
 }  // namespace hmap::sim

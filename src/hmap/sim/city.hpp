@@ -45,4 +45,13 @@ void validate(const CityParams& params);
 [[nodiscard]] std::vector<Eigen::Vector3d> city_car_route(const CityParams& params, double length_m,
                                                           double turn_radius = 6.0);
 
+/// Ground waypoints [m] of a closed drive around a rectangle of blocks: the smallest rectangle
+/// (a × b blocks, a >= b >= a − 1) whose perimeter along the street centre lines is at least
+/// `length_m`, centred on the town; from its south-west corner east first, counter-clockwise
+/// back to the start, then `overlap_m` on along the first street (a loop closure needs the
+/// start seen again from the same side). Throws hmap::Error for a length outside (0, 100 km],
+/// a rectangle that does not fit in the town, or invalid params.
+[[nodiscard]] std::vector<Eigen::Vector3d> city_loop_route(const CityParams& params, double length_m,
+                                                           double overlap_m = 40.0);
+
 }  // namespace hmap::sim

@@ -64,6 +64,7 @@ Trajectory path_for(const SimulationSpec& spec, double height) {
   if (spec.scene == "city") {
     CarPathParams p;
     p.sensor_height = height;
+    if (spec.city_route == SimulationSpec::CityRoute::kLoop) return car_path(city_loop_route(CityParams{}, 1000.0 * spec.route_km), p);
     return car_path(city_car_route(CityParams{}, 1000.0 * spec.route_km, p.turn_radius), p);
   }
   if (spec.scene == "parking") {

@@ -44,6 +44,9 @@ struct SimulationSpec {
   std::size_t stride = 1;          ///< take every stride-th frame of the 10 Hz path
   bool long_route = false;         ///< parking: drive on past the side road (about 313 m)
   double route_km = 1.0;           ///< [km] city: length of the drive, [0.1, 20] (city_car_route)
+  /// city: a random walk on the streets (city_car_route), or a closed loop around blocks back to
+  /// the start (city_loop_route, at least route_km long)
+  enum class CityRoute : std::uint8_t { kRandom, kLoop } city_route = CityRoute::kRandom;
   /// truth_seen, truth_surface and truth_ground; false leaves them empty (and skips the noise-free
   /// second scan of every frame): a long drive's truth would be gigabytes.
   bool truth = true;
