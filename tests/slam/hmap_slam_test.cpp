@@ -40,9 +40,9 @@ TEST(HmapSlam, PoseAlgebra) {
   EXPECT_NEAR(planar_of(P).yaw, a.yaw, 1e-12);
 }
 
-TEST(HmapSlam, FollowsASimulatedDrive) {
-  // Six HDL-64 scans 8 cm apart (the first step, with no velocity yet, within the basin) along a gentle curve in a walled yard, constant velocity as
-  // the only prior: every pose within 3 cm and 0.3° of the truth.
+/// A walled yard: walls of different heights, a gap, a box and a kiosk,
+/// so that no turn or shift of it looks like itself.
+sim::Scene yard() {
   sim::SceneBuilder b;
   b.add("ground", sim::make_ground({-25, -20}, {25, 20}, 0.0));
   b.add("north", sim::make_wall({-14, 12}, {14, 12}, 3.0));
@@ -51,12 +51,29 @@ TEST(HmapSlam, FollowsASimulatedDrive) {
   b.add("east", sim::make_wall({14, -6}, {14, 12}, 3.5));
   b.add("box", {{sim::Box{{4, -5, 0.6}, {1.0, 0.5, 0.6}, 0.4}, sim::SurfaceKind::kBox}});
   b.add("kiosk", {{sim::Box{{-6, 4, 1.5}, {2.0, 1.5, 1.5}, 0.3}, sim::SurfaceKind::kWall}});
-  const sim::Scene scene = b.build();
+  return b.build();
+}
+
+/// A copy of a map (merged into an empty one: an exact copy), for a saved map to continue.
+HMap copy_of(const HMap& map) {
+  HMap out(map.params());
+  merge_map(out, map);
+  return out;
+}
+
+Params yard_params() {
   Params p = outdoor_preset();
   p.map.cell_size = 0.05;
   p.map.max_range = 20.0;
   p.slam.min_layer_height = 0.1;
-  HmapSlam slam(p);
+  return p;
+}
+
+TEST(HmapSlam, FollowsASimulatedDrive) {
+  // Six HDL-64 scans 8 cm apart (the first step, with no velocity yet, within the basin) along a gentle curve in a walled yard, constant velocity as
+  // the only prior: every pose within 3 cm and 0.3° of the truth.
+  const sim::Scene scene = yard();
+  HmapSlam slam(yard_params());
   sim::SpinningLidar lidar(sim::SpinningLidarParams::hdl64e());
   const Attitude att{1.8, 0.0, 0.0};
   for (int k = 0; k < 6; ++k) {
@@ -85,35 +102,6 @@ TEST(HmapSlam, RejectsInvalidParameters) {
   p = Params{};
   p.slam.idw_weight = 1.5;
   EXPECT_THROW(ScanMatcher{p}, Error);
-}
-
-/// The walled yard of FollowsASimulatedDrive: walls of different heights, a gap, a box and a kiosk,
-/// so that no turn or shift of it looks like itself.
-sim::Scene yard() {
-  sim::SceneBuilder b;
-  b.add("ground", sim::make_ground({-25, -20}, {25, 20}, 0.0));
-  b.add("north", sim::make_wall({-14, 12}, {14, 12}, 3.0));
-  b.add("south", sim::make_wall({-14, -12}, {8, -12}, 4.0));
-  b.add("west", sim::make_wall({-14, -12}, {-14, 12}, 2.5));
-  b.add("east", sim::make_wall({14, -6}, {14, 12}, 3.5));
-  b.add("box", {{sim::Box{{4, -5, 0.6}, {1.0, 0.5, 0.6}, 0.4}, sim::SurfaceKind::kBox}});
-  b.add("kiosk", {{sim::Box{{-6, 4, 1.5}, {2.0, 1.5, 1.5}, 0.3}, sim::SurfaceKind::kWall}});
-  return b.build();
-}
-
-/// A copy of a map (merged into an empty one: an exact copy), for a saved map to continue.
-HMap copy_of(const HMap& map) {
-  HMap out(map.params());
-  merge_map(out, map);
-  return out;
-}
-
-Params yard_params() {
-  Params p = outdoor_preset();
-  p.map.cell_size = 0.05;
-  p.map.max_range = 20.0;
-  p.slam.min_layer_height = 0.1;
-  return p;
 }
 
 TEST(HmapSlam, ContinuedMapFindsTheNextSessionsFirstScanAndGrows) {

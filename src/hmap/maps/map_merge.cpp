@@ -22,6 +22,16 @@ void require_same_cell(const HMap& a, const HMap& b, const char* what) {
 
 }  // namespace
 
+Eigen::AlignedBox2d moved_square_bounds(double x0, double y0, double edge, const PlanarShift& shift) {
+  const double c = std::cos(shift.yaw);
+  const double sn = std::sin(shift.yaw);
+  Eigen::AlignedBox2d box;  // empty
+  for (const double cx : {x0, x0 + edge}) {
+    for (const double cy : {y0, y0 + edge}) box.extend(Eigen::Vector2d(c * cx - sn * cy + shift.x, sn * cx + c * cy + shift.y));
+  }
+  return box;
+}
+
 MapMergeStats merge_map(HMap& into, const HMap& from, const MemoryBudget& budget) {
   require_same_cell(into, from, "merging maps");
   MapMergeStats stats;
@@ -68,14 +78,8 @@ HMap shifted_map(const HMap& map, const PlanarShift& shift, const MemoryBudget& 
     if (tile.empty()) return;
     const double x0 = tile_key.i * edge;
     const double y0 = tile_key.j * edge;
-    double lo_x = INFINITY, lo_y = INFINITY, hi_x = -INFINITY, hi_y = -INFINITY;
-    for (const double cx : {x0, x0 + edge}) {
-      for (const double cy : {y0, y0 + edge}) {
-        const double x = c * cx - sn * cy + shift.x;
-        const double y = sn * cx + c * cy + shift.y;
-        lo_x = std::min(lo_x, x), hi_x = std::max(hi_x, x), lo_y = std::min(lo_y, y), hi_y = std::max(hi_y, y);
-      }
-    }
+    const Eigen::AlignedBox2d moved = moved_square_bounds(x0, y0, edge, shift);
+    const double lo_x = moved.min().x(), lo_y = moved.min().y(), hi_x = moved.max().x(), hi_y = moved.max().y();
     const auto lo = out.key_of(lo_x - s, lo_y - s);
     const auto hi = out.key_of(hi_x + s, hi_y + s);
     if (!lo || !hi) throw Error("moving a map: the shift takes its cells beyond the map's key range");

@@ -4,6 +4,8 @@
 // a range of tiles, so that one built in parts (each its own tiles) is put together by merging.
 
 #include <cstddef>
+
+#include <Eigen/Geometry>
 #include <cstdint>
 
 #include "hmap/maps/hmap.hpp"
@@ -29,6 +31,10 @@ struct TileRange {
     return tile_key.i >= i_begin && tile_key.i < i_end && tile_key.j >= j_begin && tile_key.j < j_end;
   }
 };
+
+/// The axis-aligned bounds [m] of the square [x0, x0 + edge] × [y0, y0 + edge] turned by
+/// shift.yaw and moved by (shift.x, shift.y): where a tile of a map or grid lands under `shift`.
+[[nodiscard]] Eigen::AlignedBox2d moved_square_bounds(double x0, double y0, double edge, const PlanarShift& shift);
 
 /// What merge_map did.
 struct MapMergeStats {

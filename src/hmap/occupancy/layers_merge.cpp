@@ -38,14 +38,8 @@ OccupancyGrid shifted_grid(const OccupancyGrid& grid, const PlanarShift& shift) 
   grid.for_each_tile([&](const CellKey& tile_key, const OccupancyGrid::Tile& tile) {
     const double x0 = tile_key.i * edge;
     const double y0 = tile_key.j * edge;
-    double lo_x = INFINITY, lo_y = INFINITY, hi_x = -INFINITY, hi_y = -INFINITY;
-    for (const double cx : {x0, x0 + edge}) {
-      for (const double cy : {y0, y0 + edge}) {
-        const double x = c * cx - sn * cy + shift.x;
-        const double y = sn * cx + c * cy + shift.y;
-        lo_x = std::min(lo_x, x), hi_x = std::max(hi_x, x), lo_y = std::min(lo_y, y), hi_y = std::max(hi_y, y);
-      }
-    }
+    const Eigen::AlignedBox2d moved = moved_square_bounds(x0, y0, edge, shift);
+    const double lo_x = moved.min().x(), lo_y = moved.min().y(), hi_x = moved.max().x(), hi_y = moved.max().y();
     const CellKey lo = key(lo_x - s, lo_y - s);
     const CellKey hi = key(hi_x + s, hi_y + s);
     for (std::int32_t i = lo.i; i <= hi.i; ++i) {
