@@ -586,6 +586,17 @@ TEST_F(HMapFileTest, FileWrittenBeforeTopNoiseLoadsWithItsDefault) {
   std::ofstream(path, std::ios::binary | std::ios::trunc) << assemble(p);
   EXPECT_DOUBLE_EQ(load_hmap(path).params().slam.odometry_noise, SlamParams{}.odometry_noise);
   EXPECT_DOUBLE_EQ(load_hmap(path).params().slam.odometry_sigma_translation, SlamParams{}.odometry_sigma_translation);
+  // And loop closure's (issue 22): maps saved before it were refused, `hmap slam --continue` of them too.
+  for (const char* name : {"occupancy.obstacle_reach", "slam.loop_closure", "slam.keyframe_distance", "slam.keyframe_rotation",
+                           "slam.loop_submap_scans", "slam.loop_min_travel", "slam.loop_search_radius",
+                           "slam.loop_max_descriptor_distance", "slam.loop_candidates", "slam.loop_search_translation",
+                           "slam.loop_search_rotation", "slam.loop_min_score"}) {
+    j.erase(name);
+  }
+  p.json = j.dump();
+  std::ofstream(path, std::ios::binary | std::ios::trunc) << assemble(p);
+  EXPECT_EQ(load_hmap(path).params().slam.loop_closure, SlamParams{}.loop_closure);
+  EXPECT_DOUBLE_EQ(load_hmap(path).params().slam.loop_min_score, SlamParams{}.loop_min_score);
   j.erase("slam.coarse_rotation");
   p.json = j.dump();
   std::ofstream(path, std::ios::binary | std::ios::trunc) << assemble(p);

@@ -39,7 +39,9 @@ bool is_later_parameter(const std::string& name) {
       "occupancy.free_ray_height", "slam.imu_gravity_time_constant", "slam.imu_accel_gate", "slam.imu_tilt_weight",
       "slam.imu_roll", "slam.imu_pitch", "slam.imu_yaw", "slam.deskew",
       "slam.odometry_sigma_translation", "slam.odometry_sigma_rotation", "slam.odometry_noise",
-      "occupancy.obstacle_reach"};
+      "occupancy.obstacle_reach", "slam.loop_closure", "slam.keyframe_distance", "slam.keyframe_rotation",
+      "slam.loop_submap_scans", "slam.loop_min_travel", "slam.loop_search_radius", "slam.loop_max_descriptor_distance",
+      "slam.loop_candidates", "slam.loop_search_translation", "slam.loop_search_rotation", "slam.loop_min_score"};
   for (const char* n : kLater) {
     if (name == n) return true;
   }
