@@ -228,7 +228,8 @@ void run_slam(const SlamOptions& o) {
   std::vector<Eigen::Vector3d> path;
 #endif
   Progress progress("slam", n);
-  double ms_loops = 0.0;  // key frames, sub-maps, place search and verification during the run
+  double ms_loops = 0.0;
+  std::vector<double> closure_ms;  // [ms] per loop closed: the loop step of the scan that closed it  // key frames, sub-maps, place search and verification during the run
   std::size_t deskewed = 0;
   std::size_t timed = 0;  // scans whose points carry a time
   // From a bag or an RGB-D folder, scan k + 1 is decoded while scan k is matched; the first, read
@@ -300,7 +301,10 @@ void run_slam(const SlamOptions& o) {
     if (loops) {
       const auto t_loop = Clock::now();
       loops->add_scan(cloud, step.T_map_sensor);
-      ms_loops += ms_since(t_loop);
+      const double ms_loop = ms_since(t_loop);
+      ms_loops += ms_loop;
+      // A loop closed in this step: its time is the step's (sub-map, place search, verifications).
+      closure_ms.resize(loops->closures().size(), ms_loop);
     }
     if (step.matched) {
       converged += step.match.converged ? 1 : 0;
@@ -333,10 +337,12 @@ void run_slam(const SlamOptions& o) {
     const auto t_graph = Clock::now();
     closed = loops->close();
     ms_graph = ms_since(t_graph);
-    for (const slam::LoopClosure& c : closed->closures) {
+    closure_ms.resize(closed->closures.size(), ms_graph);  // closed by the last key frame, in close()
+    for (std::size_t i = 0; i < closed->closures.size(); ++i) {
+      const slam::LoopClosure& c = closed->closures[i];
       loop_log += format("%zu,%zu,%zu,%zu,%.4f,%.5f,%.4f,%.4f,%.4f,%.4f,%.5f,%.4f,%.5f,%.2f\n", c.keyframe_old, c.keyframe_new,
                          c.scan_old, c.scan_new, c.descriptor_distance, c.descriptor_yaw, c.score, c.T_old_new.x,
-                         c.T_old_new.y, c.T_old_new.z, c.T_old_new.yaw, c.drift_translation, c.drift_yaw, c.ms);
+                         c.T_old_new.y, c.T_old_new.z, c.T_old_new.yaw, c.drift_translation, c.drift_yaw, closure_ms[i]);
     }
     if (!closed->closures.empty()) {
       estimate = closed->T_map_sensor;
@@ -410,7 +416,7 @@ void run_slam(const SlamOptions& o) {
   if (closed) {
     const std::size_t kfs = closed->keyframes;
     double ms_worst = 0.0;
-    for (const auto& c : closed->closures) ms_worst = std::max(ms_worst, c.ms);
+    for (const double ms : closure_ms) ms_worst = std::max(ms_worst, ms);
     std::printf("Loop closure: %zu key frames, %zu loops closed (%zu candidates verified), %.1f ms per key frame for "
                 "sub-maps, place search and verification (%.1f ms at most for a key frame that closed a loop)",
                 kfs, closed->closures.size(), closed->candidates_verified, kfs > 0 ? ms_loops / static_cast<double>(kfs) : 0.0,

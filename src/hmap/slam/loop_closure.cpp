@@ -1,7 +1,6 @@
 #include "hmap/slam/loop_closure.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <numbers>
 #include <optional>
@@ -135,7 +134,6 @@ void LoopCloser::State::finish_keyframe(std::size_t k) {
 }
 
 void LoopCloser::State::search_loops(std::size_t k) {
-  const auto t0 = std::chrono::steady_clock::now();
   const auto& sp = params.slam;
   KeyFrame& now = keyframes[k];
   if (now.submap->empty()) return;
@@ -190,7 +188,6 @@ void LoopCloser::State::search_loops(std::size_t k) {
     const GraphPose drifted = relative(old.pose, now.pose);
     closure.drift_translation = std::hypot(drifted.x - r.shift.x, drifted.y - r.shift.y);
     closure.drift_yaw = std::abs(wrap(drifted.yaw - r.shift.yaw));
-    closure.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     closures.push_back(closure);
     break;  // one loop edge per key frame
   }

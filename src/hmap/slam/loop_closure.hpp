@@ -34,7 +34,6 @@ struct LoopClosure {
   /// [m, rad] how far T_old_new is from what the drifted estimates said (the drift it removes).
   double drift_translation = 0.0;
   double drift_yaw = 0.0;
-  double ms = 0.0;                   ///< time spent on this key frame's search and verifications
 };
 
 /// What LoopCloser::close did.
