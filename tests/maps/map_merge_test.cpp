@@ -8,6 +8,7 @@
 #include <random>
 
 #include "hmap/core/error.hpp"
+#include "hmap/maps/map_rebuild.hpp"
 #include "hmap/maps/mapper.hpp"
 
 namespace hmap {
@@ -294,6 +295,127 @@ TEST(MapCrop, KeepsOnlyTheRangeAndRefusesAnInvertedOne) {
   EXPECT_TRUE(crop_map(m, TileRange{3, 3, 3, 9}).empty());  // no tile
   EXPECT_TRUE(crop_map(HMap(p), range).empty());
   EXPECT_THROW((void)crop_map(m, TileRange{2, 0, 1, 3}), Error);
+}
+
+
+// Loop closure's rebuild (map_rebuild.hpp): a corridor of 36 scans 2 m apart, the last eight
+// corrected sideways and turned. Rebuilding the tiles the moved scans reach gives, column for
+// column, the map built in one go at the result's poses, while most scans are not read again.
+class TileRebuildTest : public ::testing::Test {
+ protected:
+  static constexpr int kScans = 36;
+  Params p = params(0.2);
+  std::vector<PointCloud> scans;
+  PoseList built_at;
+
+  void SetUp() override {
+    p.map.max_range = 8.0;
+    for (int k = 0; k < kScans; ++k) {
+      const Eigen::Vector3d o(2.0 * k, 0.0, 1.5);
+      scans.push_back(scene_points(o, o.x() + 4.0, 300 + k));
+      Pose T = Pose::Identity();
+      T.translation() = o;
+      built_at.push_back(T);
+    }
+  }
+  HMap build(const PoseList& poses) const {
+    Mapper m(p);
+    for (int k = 0; k < kScans; ++k) m.integrate(scans[k], poses[k]);
+    return std::move(m.map());
+  }
+  std::function<void(std::size_t, PointCloud&)> reader(std::vector<int>* read = nullptr) const {
+    return [this, read](std::size_t k, PointCloud& out) {
+      if (read) read->push_back(static_cast<int>(k));
+      out = scans[k];
+    };
+  }
+};
+
+TEST_F(TileRebuildTest, MovedTilesRebuiltEqualTheWholeMapBuiltAtTheCorrectedPoses) {
+  const HMap built = build(built_at);
+  PoseList corrected = built_at;
+  for (int k = 28; k < kScans; ++k) {  // 5 cm more sideways per scan, and 0.2 degrees more turned
+    corrected[k].translation().y() += 0.05 * (k - 27);
+    corrected[k].linear() = Eigen::AngleAxisd(0.0035 * (k - 27), Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  }
+  corrected[3].translation().x() += 0.001;  // within the tolerance: kept where it was built
+  std::vector<int> read;
+  const TileRebuild r = rebuild_moved_tiles(built, built_at, corrected, 0.01, reader(&read));
+  EXPECT_EQ(r.scans_moved, 8U);
+  EXPECT_TRUE(r.T_map_sensor[3].isApprox(built_at[3]));
+  EXPECT_TRUE(r.T_map_sensor[30].isApprox(corrected[30]));
+  // The first moved scan (x = 56, cell 280) reaches back 42 cells, to tile (280 - 42) >> 3 = 29;
+  // the scan at x = 38 reaches forward to tile (190 + 42) >> 3 = 29 too: the scans from it on
+  // (k >= 19) are read again, the 19 before them are not.
+  EXPECT_EQ(r.scans_integrated, read.size());
+  EXPECT_EQ(read.front(), 19);
+  EXPECT_EQ(read.size(), 17U);
+  EXPECT_GT(r.tiles_kept, 100U);
+  EXPECT_GT(r.tiles_rebuilt, 100U);
+  const HMap whole = build(r.T_map_sensor);
+  expect_same(whole, r.map);
+  expect_same(r.map, whole);
+  // The map did change where the scans moved: the old one is not the new one.
+  std::size_t differ = 0;
+  whole.for_each_column([&](const CellKey& k, const ColumnView& c) {
+    const ColumnView o = built.column(k);
+    differ += (o.size() != c.size() || !std::equal(c.begin(), c.end(), o.begin())) ? 1 : 0;
+  });
+  EXPECT_GT(differ, 500U);
+}
+
+TEST_F(TileRebuildTest, RebuildingOnlyTheNewSquaresWouldMissWhatTheScansLeftBehind) {
+  // The scans moved 20 m sideways, past the 8.4 m their squares reach: their old tiles must be
+  // rebuilt too (to lose their HVoxels);
+  // with a tolerance above the move, nothing is rebuilt and the old map comes back as it was.
+  const HMap built = build(built_at);
+  PoseList corrected = built_at;
+  for (int k = 30; k < kScans; ++k) corrected[k].translation().y() += 20.0;
+  const TileRebuild r = rebuild_moved_tiles(built, built_at, corrected, 0.0, reader());
+  EXPECT_EQ(r.scans_moved, 6U);
+  expect_same(build(corrected), r.map);
+  expect_same(r.map, build(corrected));
+  std::vector<int> read;
+  const TileRebuild kept = rebuild_moved_tiles(built, built_at, corrected, 20.5, reader(&read));
+  EXPECT_EQ(kept.scans_moved, 0U);
+  EXPECT_TRUE(read.empty());
+  EXPECT_EQ(kept.tiles_rebuilt, 0U);
+  expect_same(built, kept.map);
+  expect_same(kept.map, built);
+}
+
+TEST_F(TileRebuildTest, RefusesMismatchedPosesNonFiniteOnesAndABadTolerance) {
+  const HMap built = build(built_at);
+  PoseList fewer(built_at.begin(), built_at.end() - 1);
+  EXPECT_THROW((void)rebuild_moved_tiles(built, built_at, fewer, 0.01, reader()), Error);
+  PoseList bad = built_at;
+  bad[5].translation().x() = NAN;
+  EXPECT_THROW((void)rebuild_moved_tiles(built, built_at, bad, 0.01, reader()), Error);
+  bad[5].translation().x() = 1e12;  // beyond the key range
+  EXPECT_THROW((void)rebuild_moved_tiles(built, built_at, bad, 0.01, reader()), Error);
+  EXPECT_THROW((void)rebuild_moved_tiles(built, built_at, built_at, -1.0, reader()), Error);
+  EXPECT_THROW((void)rebuild_moved_tiles(built, built_at, built_at, NAN, reader()), Error);
+  // No scans: an empty map.
+  const TileRebuild none = rebuild_moved_tiles(HMap(p), {}, {}, 0.01, reader());
+  EXPECT_TRUE(none.map.empty());
+  EXPECT_EQ(none.scans_integrated, 0U);
+}
+
+TEST(PoseDisplacementBound, IsTheShiftPlusTheTurnAtTheRange) {
+  Pose a = Pose::Identity();
+  Pose b = Pose::Identity();
+  b.translation() = Eigen::Vector3d(3.0, 4.0, 0.0);
+  EXPECT_NEAR(pose_displacement_bound(a, b, 50.0), 5.0, 1e-12);
+  b.linear() = Eigen::AngleAxisd(0.01, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  EXPECT_NEAR(pose_displacement_bound(a, b, 10.0), 5.1, 1e-9);
+  EXPECT_NEAR(pose_displacement_bound(b, b, 10.0), 0.0, 1e-6);
+  // The square of tiles a scan reaches: 8 m / 0.2 m = 40 cells, +2, about the sensor's cell 0.
+  Params p = params(0.2);
+  p.map.max_range = 8.0;
+  const TileSquare s = scan_tile_square(p.map, a);
+  EXPECT_EQ(s.lo.i, HMap::tile_of({-42, 0}).i);
+  EXPECT_EQ(s.hi.i, HMap::tile_of({42, 0}).i);
+  EXPECT_EQ(s.lo.j, s.lo.i);
 }
 
 }  // namespace

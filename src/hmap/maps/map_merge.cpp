@@ -32,6 +32,15 @@ Eigen::AlignedBox2d moved_square_bounds(double x0, double y0, double edge, const
   return box;
 }
 
+void copy_tile(HMap& into, const CellKey& tile_key, const HMap::Tile& tile) {
+  for (int local = 0; local < HMap::kTileCells; ++local) {
+    const ColumnView source = tile.column(local);
+    if (source.empty()) continue;
+    TileColumn column = into.column_for_update(HMap::key_in_tile(tile_key, local));
+    for (const HVoxel& v : source) column.push_back(v);
+  }
+}
+
 MapMergeStats merge_map(HMap& into, const HMap& from, const MemoryBudget& budget) {
   require_same_cell(into, from, "merging maps");
   MapMergeStats stats;
@@ -114,13 +123,7 @@ HMap crop_map(const HMap& map, const TileRange& range) {
   }
   HMap out(map.params());
   map.for_each_tile([&](const CellKey& tile_key, const HMap::Tile& tile) {
-    if (!range.contains(tile_key)) return;
-    for (int local = 0; local < HMap::kTileCells; ++local) {
-      const ColumnView source = tile.column(local);
-      if (source.empty()) continue;
-      TileColumn column = out.column_for_update(HMap::key_in_tile(tile_key, local));
-      for (const HVoxel& v : source) column.push_back(v);
-    }
+    if (range.contains(tile_key)) copy_tile(out, tile_key, tile);
   });
   return out;
 }

@@ -36,6 +36,10 @@ struct TileRange {
 /// shift.yaw and moved by (shift.x, shift.y): where a tile of a map or grid lands under `shift`.
 [[nodiscard]] Eigen::AlignedBox2d moved_square_bounds(double x0, double y0, double edge, const PlanarShift& shift);
 
+/// Copies the non-empty columns of `tile` (tile key `tile_key` of another map with the same cell)
+/// into `into`'s same cells, after what they hold.
+void copy_tile(HMap& into, const CellKey& tile_key, const HMap::Tile& tile);
+
 /// What merge_map did.
 struct MapMergeStats {
   std::size_t columns_added = 0;   ///< columns of `from` where `into` had none: copied as they are
