@@ -231,6 +231,7 @@ void run_slam(const SlamOptions& o) {
   double ms_loops = 0.0;
   std::vector<double> closure_ms;  // [ms] per loop closed: the loop step of the scan that closed it  // key frames, sub-maps, place search and verification during the run
   std::size_t deskewed = 0;
+  bool map_from_raw = true;
   std::size_t timed = 0;  // scans whose points carry a time
   // From a bag or an RGB-D folder, scan k + 1 is decoded while scan k is matched; the first, read
   // above, is not read again.
@@ -278,6 +279,9 @@ void run_slam(const SlamOptions& o) {
       relocalise_ms = ms_since(t0);
     }
     deskewed += step.deskewed ? 1 : 0;
+    // The map holds the scans as read, at their poses, unless a scan was merged deskewed or at
+    // another time than its pose's: then a loop closure rebuilds all of it.
+    map_from_raw = map_from_raw && !step.deskewed && step.T_map_merged.matrix() == step.T_map_sensor.matrix();
     timed += point_times.empty() ? 0 : 1;
     const double ms = ms_since(t0);
     ms_total += ms;
@@ -328,7 +332,7 @@ void run_slam(const SlamOptions& o) {
   // Loop closure: the pose graph over the key frames, every pose corrected, the map rebuilt from
   // the scans at the corrected poses (read again; the whole map: docs/SLAM.md).
   std::optional<slam::LoopClosureResult> closed;
-  std::optional<HMap> rebuilt;
+  std::optional<TileRebuild> rebuilt;
   double ms_graph = 0.0;
   double ms_rebuild = 0.0;
   std::string loop_log = "keyframe_old,keyframe_new,scan_old,scan_new,descriptor_distance,descriptor_yaw,score,x,y,z,yaw,"
@@ -345,14 +349,15 @@ void run_slam(const SlamOptions& o) {
                          c.T_old_new.y, c.T_old_new.z, c.T_old_new.yaw, c.drift_translation, c.drift_yaw, closure_ms[i]);
     }
     if (!closed->closures.empty()) {
-      estimate = closed->T_map_sensor;
       const auto t_rebuild = Clock::now();
       CloudReadStats again;
-      rebuilt = slam::rebuild_map(params, estimate, [&](std::size_t k, PointCloud& out) { out = src.read(k, again); });
+      rebuilt = slam::map_at_corrected_poses(params, map_from_raw ? &slam.map() : nullptr, estimate, closed->T_map_sensor,
+                                             [&](std::size_t k, PointCloud& out) { out = src.read(k, again); });
       ms_rebuild = ms_since(t_rebuild);
+      estimate = rebuilt->T_map_sensor;
     }
   }
-  const HMap& final_map = rebuilt ? *rebuilt : slam.map();
+  const HMap& final_map = rebuilt ? rebuilt->map : slam.map();
 
   // The poses, the map and the picture are one set: a kill leaves the old folder or the new one.
   write_folder_atomic(o.out, [&](const std::filesystem::path& dir) {
@@ -422,10 +427,17 @@ void run_slam(const SlamOptions& o) {
                 kfs, closed->closures.size(), closed->candidates_verified, kfs > 0 ? ms_loops / static_cast<double>(kfs) : 0.0,
                 ms_worst);
     if (!closed->closures.empty()) {
-      std::printf("; pose graph %.1f ms (%d iterations), poses moved by up to %.2f m (the last by %.2f m), the whole map "
-                  "rebuilt from the scans in %.2f s; %s/loop_closures.csv",
-                  ms_graph, closed->graph.iterations, closed->max_correction, closed->end_correction, ms_rebuild / 1000.0,
-                  o.out.c_str());
+      std::printf("; pose graph %.1f ms (%d iterations), poses moved by up to %.2f m (the last by %.2f m); ", ms_graph,
+                  closed->graph.iterations, closed->max_correction, closed->end_correction);
+      if (rebuilt->whole) {
+        std::printf("the whole map rebuilt from the %zu scans in %.2f s (scans were merged deskewed)", rebuilt->scans_integrated,
+                    ms_rebuild / 1000.0);
+      } else {
+        std::printf("%zu of %zu scans moved more than %.3f m: %zu tiles rebuilt from %zu scans read again, %zu tiles kept, "
+                    "in %.2f s", rebuilt->scans_moved, n, params.map.cell_size / 10.0, rebuilt->tiles_rebuilt,
+                    rebuilt->scans_integrated, rebuilt->tiles_kept, ms_rebuild / 1000.0);
+      }
+      std::printf("; %s/loop_closures.csv", o.out.c_str());
     }
     std::printf(".\n");
   }

@@ -1,6 +1,6 @@
 # Type stubs of the pybind11 module _hmap (python/src/hmap_pybind.cpp), for editors and type checkers.
 from os import PathLike
-from typing import Any, Iterator, Optional, Sequence, Union
+from typing import Any, Callable, Iterator, Optional, Sequence, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -133,6 +133,7 @@ class slam:
         def process(self, points: npt.NDArray[np.floating], stamp: Optional[float] = None,
                     times: Optional[npt.ArrayLike] = None, *, attitude: Optional[npt.ArrayLike] = None,
                     guess: Optional[npt.ArrayLike] = None, non_finite: str = "raise") -> dict[str, Any]: ...
+        def close_loops(self, read_scan: Callable[[int], npt.NDArray[np.floating]]) -> dict[str, Any]: ...
         def start_at_height(self, z: float) -> None: ...
         def predict(self) -> tuple[float, float, float]: ...
         @property

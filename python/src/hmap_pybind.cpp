@@ -41,6 +41,7 @@
 #include "hmap/occupancy/hybrid_mapper.hpp"
 #include "hmap/render/render.hpp"
 #include "hmap/slam/hmap_slam.hpp"
+#include "hmap/slam/loop_closure.hpp"
 #include "hmap/maps/map_merge.hpp"
 #include "hmap/maps/raycast.hpp"
 #include "hmap/occupancy/layers_merge.hpp"
@@ -84,6 +85,9 @@ struct MapperBox {
   std::optional<slam::HmapSlam> slam;
   PoseList slam_poses;  ///< the poses SLAM merged its scans at, one per process()
   std::optional<slam::ImuAttitudeFilter> imu;  ///< Slam(params, imu=...): the prior of each scan, as `hmap slam --imu`
+  std::optional<slam::LoopCloser> loops;  ///< the Slam's key frames while slam.loop_closure is on (not for a continued map)
+  bool map_from_raw = true;  ///< no scan was merged deskewed or at another time: loop closure rebuilds tiles, not all
+  bool loops_closed = false;
 };
 
 struct PyMapper {
@@ -511,8 +515,90 @@ py::dict slam_process(PySlam& self, const py::handle& points, std::optional<doub
     if (box.imu) in.imu = box.imu->prior_for_scan(*stamp, in.times, box.slam->velocity().linear);
     step = box.slam->process(in);
     box.slam_poses.push_back(step.T_map_sensor);
+    box.map_from_raw = box.map_from_raw && !step.deskewed && step.T_map_merged.matrix() == step.T_map_sensor.matrix();
+    if (box.loops) box.loops->add_scan(pts, step.T_map_sensor);
   }
   return slam_step_dict(step);
+}
+
+/// Slam.close_loops: the pose graph over the key frames, every pose corrected, the map rebuilt
+/// from the scans read again (as `hmap slam` does after its last scan).
+py::dict slam_close_loops(PySlam& self, const py::function& read_scan) {
+  MapperBox& box = *self.box;
+  slam::LoopClosureResult closed;
+  PoseList built_at;
+  std::optional<HMap> built;  // a copy: read_scan may use this Slam while the tiles are rebuilt
+  Params params;
+  {
+    py::gil_scoped_release release;
+    const std::scoped_lock lock(box.mutex);
+    if (!box.loops) {
+      throw py::value_error("close_loops: loop closure is off for this Slam (slam.loop_closure=0, or a continued map)");
+    }
+    if (box.loops_closed) throw py::value_error("close_loops: the loops were closed already (call it once, after the last scan)");
+    box.loops_closed = true;
+    closed = box.loops->close();
+    built_at = box.slam_poses;
+    params = box.slam->params();
+    if (!closed.closures.empty() && box.map_from_raw) {
+      built.emplace(box.slam->map().params());
+      merge_map(*built, box.slam->map());  // into an empty map: an exact copy
+    }
+  }
+  py::dict d;
+  py::list closures;
+  for (const slam::LoopClosure& c : closed.closures) {
+    py::dict e;
+    e["keyframe_old"] = c.keyframe_old;
+    e["keyframe_new"] = c.keyframe_new;
+    e["scan_old"] = c.scan_old;
+    e["scan_new"] = c.scan_new;
+    e["descriptor_distance"] = c.descriptor_distance;
+    e["descriptor_yaw"] = c.descriptor_yaw;
+    e["score"] = c.score;
+    e["T_old_new"] = py::make_tuple(c.T_old_new.x, c.T_old_new.y, c.T_old_new.z, c.T_old_new.yaw);
+    e["drift_translation"] = c.drift_translation;
+    e["drift_yaw"] = c.drift_yaw;
+    closures.append(e);
+  }
+  d["closures"] = closures;
+  d["keyframes"] = closed.keyframes;
+  d["candidates_verified"] = closed.candidates_verified;
+  d["max_correction"] = closed.max_correction;
+  d["end_correction"] = closed.end_correction;
+  if (closed.closures.empty()) {
+    d["poses"] = poses_array(built_at);
+    d["map"] = Map(self.box);
+    d["rebuild"] = py::none();
+    return d;
+  }
+  std::optional<TileRebuild> rebuilt_at;
+  {
+    py::gil_scoped_release release;
+    rebuilt_at = slam::map_at_corrected_poses(params, built ? &*built : nullptr, built_at, closed.T_map_sensor,
+                                           [&](std::size_t k, PointCloud& out) {
+      py::gil_scoped_acquire gil;
+      const py::array arr = checked_points(read_scan(k), "read_scan(k)");
+      PointCloud storage;
+      const std::span<const Point3f> pts = points_of(arr, storage, NonFinite::kDrop, "read_scan(k)");
+      out.assign(pts.begin(), pts.end());
+    });
+  }
+  TileRebuild& rebuilt = *rebuilt_at;
+  {
+    const std::scoped_lock lock(box.mutex);
+    box.slam_poses = rebuilt.T_map_sensor;
+  }
+  py::dict r;
+  r["whole"] = rebuilt.whole;
+  r["scans_moved"] = rebuilt.scans_moved;
+  r["scans_integrated"] = rebuilt.scans_integrated;
+  r["tiles_rebuilt"] = rebuilt.tiles_rebuilt;
+  r["tiles_kept"] = rebuilt.tiles_kept;
+  d["rebuild"] = r;
+  d["poses"] = poses_array(rebuilt.T_map_sensor);
+  d["map"] = Map(MapFile{std::move(rebuilt.map), {}, std::nullopt});
+  return d;
 }
 
 py::dict trajectory_dict(const py::handle& truth, const py::handle& estimate, const std::optional<std::vector<double>>& lengths,
@@ -1003,6 +1089,8 @@ PYBIND11_MODULE(_hmap, m) {
           box->slam.emplace(p, std::move(copy), where);
         } else {
           box->slam.emplace(p);
+          // As `hmap slam`: off for a continued map, whose rebuild would lose what was saved.
+          if (p.slam.loop_closure != 0) box->loops.emplace(p);
         }
         if (!imu.is_none()) box->imu.emplace(imu_samples_of(imu), box->slam->params());
         return PySlam{box};
@@ -1031,6 +1119,18 @@ PYBIND11_MODULE(_hmap, m) {
            "... 'yaw': bool}), planar_passes, deskewed, sweep_velocity, imu_used, tilt_hypotheses, tilt_from_floor, "
            "mapping (the map update's figures), relocalised (the first scan of a continued map: {'shift': (x, y, z, yaw), "
            "'score', 'columns_used', 'floor_pairs'}; else None).")
+      .def("close_loops", &slam_close_loops, py::arg("read_scan"),
+           "Loop closure, once, after the last scan (slam.loop_closure, on by default; off for a continued map): the "
+           "key frames' loops are searched and verified, the pose graph optimised, every pose corrected and the map "
+           "built again from the scans, which read_scan(k) returns again as (N, 3) arrays (non-finite points "
+           "dropped). Only the tiles the moved scans reach are rebuilt when no scan was merged deskewed (a scan "
+           "moved by at most a tenth of a cell keeps its pose); else the whole map. Runs without the GIL but for "
+           "read_scan. Returns {'closures': [{'keyframe_old', 'keyframe_new', 'scan_old', 'scan_new', "
+           "'descriptor_distance', 'descriptor_yaw', 'score', 'T_old_new': (x, y, z, yaw), 'drift_translation', "
+           "'drift_yaw'}], 'keyframes', 'candidates_verified', 'max_correction', 'end_correction', 'poses' ((K, 4, 4), "
+           "the corrected T_map_sensor, also Slam.poses from then on), 'map' (hmap.Map at those poses; the live "
+           "map when nothing closed), 'rebuild' ({'whole', 'scans_moved', 'scans_integrated', 'tiles_rebuilt', "
+           "'tiles_kept'}, or None when nothing closed)}. Raises ValueError when loop closure is off or it ran already.")
       .def("start_at_height", [](PySlam& self, double z) {
         const std::scoped_lock lock(self.box->mutex);
         if (self.box->slam->scans() > 0) throw py::value_error("start_at_height must come before the first scan");

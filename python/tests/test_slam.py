@@ -210,3 +210,64 @@ def test_slam_continues_a_saved_map_as_the_cli_does(tmp_path):
     assert slam.map.stats()["hvoxels"] > saved.stats()["hvoxels"]
     with pytest.raises(hmap.Error, match="search"):
         hmap.slam.Slam(hmap.Params("outdoor"), continue_map=saved, search=25.0)
+
+
+def _planar(T):
+    """x, y and yaw of a pose as a 4x4 (what the SLAM takes of an odometry pose)."""
+    yaw = np.arctan2(T[1, 0], T[0, 0])
+    M = np.eye(4)
+    M[:2, :2] = [[np.cos(yaw), -np.sin(yaw)], [np.sin(yaw), np.cos(yaw)]]
+    M[:2, 3] = T[:2, 3]
+    return M
+
+
+def test_slam_closes_a_loop_as_the_cli_does(tmp_path):
+    """Once around a block of the simulated town with noisy odometry: Slam.close_loops closes the
+    loops `hmap slam` closes, corrects the poses as it does, and its rebuilt map holds the CLI's."""
+    cli = cli_or_skip()
+    seq = tmp_path / "L"
+    subprocess.run([str(cli), "simulate", "--scene", "city", "--route", "loop", "--route-km", "0.2", "--sensor", "vlp16",
+                    "--stride", "10", "--out", str(seq)], check=True, capture_output=True)
+    out = tmp_path / "O"
+    run = subprocess.run([str(cli), "slam", "--kitti", str(seq), "--odometry", str(seq / "odometry.txt"), "--out",
+                          str(out)], check=True, capture_output=True, text=True)
+    cli_poses = np.loadtxt(out / "poses.txt").reshape(-1, 3, 4)
+    cli_loops = np.atleast_2d(np.loadtxt(out / "loop_closures.csv", delimiter=",", skiprows=1))
+
+    odometry = hmap.io.read_poses(seq / "odometry.txt")
+    frames = list(hmap.io.kitti_sequence(seq))
+    scans = [points for points, _, _ in frames]
+    slam = hmap.slam.Slam(hmap.params_for_scan(scans[0])["params"])
+    slam.start_at_height(odometry[0][2, 3])  # as the CLI does with --odometry
+    for k, (points, _, stamp) in enumerate(frames):
+        guess = odometry[0] if k == 0 else _planar(slam.poses[-1]) @ np.linalg.inv(_planar(odometry[k - 1])) @ _planar(odometry[k])
+        slam.process(points, stamp, guess=guess)
+    before = slam.poses.copy()
+    read = []
+
+    def read_scan(k):
+        read.append(k)
+        return scans[k]
+
+    closed = slam.close_loops(read_scan)
+    assert len(closed["closures"]) == len(cli_loops) > 0
+    for c, row in zip(closed["closures"], cli_loops):
+        assert (c["scan_old"], c["scan_new"]) == (row[2], row[3])
+        assert c["score"] >= 0.4
+    np.testing.assert_allclose(closed["poses"][:, :3, :], cli_poses, rtol=0, atol=1e-6)
+    np.testing.assert_array_equal(slam.poses, closed["poses"])  # Slam.poses are the corrected ones now
+    assert np.abs(closed["poses"][:, :3, 3] - before[:, :3, 3]).max() > 0.1  # the loop moved them
+    r = closed["rebuild"]
+    assert not r["whole"]  # the sim's scans carry no per-point time: nothing was merged deskewed
+    assert 0 < r["scans_moved"] <= len(scans) and r["scans_integrated"] == len(read)
+    assert f"{r['scans_moved']} of {len(scans)} scans moved" in run.stdout
+    cli_map = hmap.Map.load(out / "map.hmap").stats()
+    assert closed["map"].stats()["cells"] == cli_map["cells"]
+    assert closed["map"].stats()["hvoxels"] == cli_map["hvoxels"]
+    with pytest.raises(ValueError, match="closed already"):
+        slam.close_loops(read_scan)
+    params = hmap.Params("outdoor")
+    params.set("slam.loop_closure", 0)
+    off = hmap.slam.Slam(params)
+    with pytest.raises(ValueError, match="loop closure is off"):
+        off.close_loops(read_scan)

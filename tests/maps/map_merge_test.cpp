@@ -10,6 +10,7 @@
 #include "hmap/core/error.hpp"
 #include "hmap/maps/map_rebuild.hpp"
 #include "hmap/maps/mapper.hpp"
+#include "common/same_map.hpp"
 
 namespace hmap {
 namespace {
@@ -32,16 +33,7 @@ void put(HMap& m, CellKey key, std::initializer_list<HVoxel> vs) {
 }
 
 /// Every column of `a` equals `b`'s at the same cell, and both hold as many.
-void expect_same(const HMap& a, const HMap& b) {
-  std::size_t n = 0;
-  a.for_each_column([&](const CellKey& k, const ColumnView& c) {
-    ++n;
-    const ColumnView o = b.column(k);
-    ASSERT_EQ(o.size(), c.size()) << k.i << "," << k.j;
-    for (std::size_t q = 0; q < c.size(); ++q) EXPECT_EQ(o[q], c[q]) << k.i << "," << k.j;
-  });
-  EXPECT_EQ(n, b.stats().cells);
-}
+void expect_same(const HMap& a, const HMap& b) { test::expect_same_columns(a, b); }
 
 /// A random map: `cells` columns in a square of `side` cells, 1-3 disjoint HVoxels each.
 HMap random_map(const Params& p, int cells, int side, std::uint32_t seed) {

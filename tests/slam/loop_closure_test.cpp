@@ -12,6 +12,7 @@
 #include "hmap/sim/sensors.hpp"
 #include "hmap/sim/trajectory.hpp"
 #include "hmap/slam/hmap_slam.hpp"
+#include "common/same_map.hpp"
 
 namespace hmap::slam {
 namespace {
@@ -108,6 +109,34 @@ TEST(LoopClosure, ASmallSimulatedLoopClosesAndTheEndErrorFalls) {
             0.3 * std::abs(d.drifted.back().translation().z() - d.truth.back().translation().z()));
   // The first scan defines the frame and stays.
   EXPECT_TRUE(r.T_map_sensor.front().isApprox(d.drifted.front()));
+
+  // The map at the corrected poses: rebuilt where the moved scans reach, it holds what the whole
+  // map rebuilt at the result's poses does; the scans the graph left within a tenth of a cell
+  // (the first ones, before the closed loop's first key frame) keep their pose and are not read.
+  const Params p = loop_params();
+  Mapper built(p);
+  for (std::size_t k = 0; k < d.scans.size(); ++k) (void)built.integrate(d.scans[k], d.drifted[k]);
+  std::size_t read = 0;
+  const auto scan = [&](std::size_t k, PointCloud& out) {
+    ++read;
+    out = d.scans[k];
+  };
+  const TileRebuild tiles = map_at_corrected_poses(p, &built.map(), d.drifted, r.T_map_sensor, scan);
+  EXPECT_FALSE(tiles.whole);
+  EXPECT_GT(tiles.scans_moved, 0u);
+  EXPECT_LT(tiles.scans_moved, d.scans.size());
+  EXPECT_EQ(tiles.scans_integrated, read);
+  test::expect_same_columns(rebuild_map(p, tiles.T_map_sensor, scan), tiles.map);
+  for (std::size_t k = 0; k < d.scans.size(); ++k) {
+    const double moved = pose_displacement_bound(d.drifted[k], r.T_map_sensor[k], p.map.max_range);
+    EXPECT_TRUE(tiles.T_map_sensor[k].isApprox(moved > p.map.cell_size / 10.0 ? r.T_map_sensor[k] : d.drifted[k])) << k;
+  }
+  // Without the built map, all of it is rebuilt at the corrected poses.
+  const TileRebuild whole = map_at_corrected_poses(p, nullptr, d.drifted, r.T_map_sensor, scan);
+  EXPECT_TRUE(whole.whole);
+  EXPECT_EQ(whole.scans_integrated, d.scans.size());
+  EXPECT_EQ(whole.scans_moved, tiles.scans_moved);
+  for (std::size_t k = 0; k < d.scans.size(); ++k) EXPECT_TRUE(whole.T_map_sensor[k].isApprox(r.T_map_sensor[k]));
 }
 
 TEST(LoopClosure, AStraightDriveClosesNothingAndChangesNothing) {

@@ -23,6 +23,7 @@ struct TileRebuild {
   std::size_t scans_integrated = 0;  ///< scans read and integrated again (they reach a rebuilt tile)
   std::size_t tiles_rebuilt = 0;     ///< tiles built again that hold HVoxels (a moved scan reaches them)
   std::size_t tiles_kept = 0;        ///< tiles of `built` copied as they were
+  bool whole = false;                ///< the whole map was rebuilt instead (slam::map_at_corrected_poses)
 };
 
 /// The farthest a point within `max_range` of the sensor moves from pose `a` to pose `b` can go,

@@ -260,4 +260,20 @@ HMap rebuild_map(const Params& params, std::span<const Pose> T_map_sensor,
   return std::move(mapper.map());
 }
 
+TileRebuild map_at_corrected_poses(const Params& params, const HMap* built, std::span<const Pose> T_built,
+                                   std::span<const Pose> T_corrected,
+                                   const std::function<void(std::size_t, PointCloud&)>& scan) {
+  if (built != nullptr) return rebuild_moved_tiles(*built, T_built, T_corrected, params.map.cell_size / 10.0, scan);
+  TileRebuild out{rebuild_map(params, T_corrected, scan), PoseList(T_corrected.begin(), T_corrected.end())};
+  out.whole = true;
+  for (std::size_t k = 0; k < T_corrected.size(); ++k) {
+    const bool moved = k >= T_built.size() ||
+                       pose_displacement_bound(T_built[k], T_corrected[k], params.map.max_range) > params.map.cell_size / 10.0;
+    out.scans_moved += moved ? 1 : 0;
+  }
+  out.scans_integrated = T_corrected.size();
+  out.tiles_rebuilt = out.map.stats().tiles;
+  return out;
+}
+
 }  // namespace hmap::slam

@@ -15,6 +15,7 @@
 #include <span>
 #include <vector>
 
+#include "hmap/maps/map_rebuild.hpp"
 #include "hmap/maps/mapper.hpp"
 #include "hmap/slam/place_descriptor.hpp"
 #include "hmap/slam/pose_graph.hpp"
@@ -78,5 +79,15 @@ class LoopCloser {
 /// merging is per column, but extrusion frees space along rays that cross many tiles).
 [[nodiscard]] HMap rebuild_map(const Params& params, std::span<const Pose> T_map_sensor,
                                const std::function<void(std::size_t, PointCloud&)>& scan);
+
+/// The map at the loop-corrected poses. When `built` is given, it must be the scans as
+/// scan(k, out) reads them integrated at T_built[k], in order (the SLAM's map when no scan was
+/// deskewed): only the tiles the moved scans reach are rebuilt (rebuild_moved_tiles, a scan
+/// counting as moved when its correction moves a point within map.max_range by more than a tenth
+/// of a cell; the others keep their built pose). Without it the whole map is rebuilt at
+/// T_corrected (result.whole). Throws hmap::Error as rebuild_moved_tiles does.
+[[nodiscard]] TileRebuild map_at_corrected_poses(const Params& params, const HMap* built, std::span<const Pose> T_built,
+                                                 std::span<const Pose> T_corrected,
+                                                 const std::function<void(std::size_t, PointCloud&)>& scan);
 
 }  // namespace hmap::slam
