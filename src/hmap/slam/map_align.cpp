@@ -67,9 +67,23 @@ MapAlignResult align_maps(const HMap& reference, const HMap& moving, const MapAl
     sum += v;
   });
   if (keys.empty()) throw Error("aligning maps: at the guess, no column of the second map lies over the first");
-  // The scan is centred on the columns' centroid cell o (whole cells, so the cell centres stay
-  // exact): a point v of `moving` is v' = v - o in the scan.
-  const auto o = moving.key_of(sum.x() / static_cast<double>(keys.size()), sum.y() / static_cast<double>(keys.size())).value();
+  // The scan is centred on a whole cell o (so the cell centres stay exact): a point v of `moving`
+  // is v' = v - o in the scan. On the moving frame's origin when the columns lie close enough
+  // about it that the coarse search's yaw step (two cells at their RMS radius) is not widened
+  // over the window: one search then covers every heading (a scan's map about its sensor, as
+  // `hmap slam --continue` aligns). Else on the columns' centroid, in yaw sectors (below).
+  double radius2 = 0.0;
+  double reach_cells = 0.0;
+  for (const CellKey& key : keys) {
+    radius2 += moving.cell_center(key).squaredNorm();
+    reach_cells = std::max({reach_cells, std::abs(key.i + 0.5), std::abs(key.j + 0.5)});
+  }
+  const double rms_radius = std::sqrt(radius2 / static_cast<double>(keys.size()));
+  const bool about_origin = reach_cells <= kMaxReachCells &&
+                            (options.search_rotation <= 0.0 ||
+                             2.0 * s / std::max(rms_radius, s) >= options.search_rotation / ScanMatcher::kCoarseMaxYawSteps);
+  const CellKey o = about_origin ? CellKey{0, 0}
+                                 : moving.key_of(sum.x() / static_cast<double>(keys.size()), sum.y() / static_cast<double>(keys.size())).value();
   std::sort(keys.begin(), keys.end(), [](const CellKey& a, const CellKey& b) { return a.i != b.i ? a.i < b.i : a.j < b.j; });
 
   MapAlignResult result;
@@ -139,6 +153,7 @@ MapAlignResult align_maps(const HMap& reference, const HMap& moving, const MapAl
     if (k == 0 || m.score > result.match.score) result.match = m;
   }
   result.sectors = sectors;
+  result.about_origin = about_origin;
   PlanarShift shift = uncentred(result.match.pose, z0);
   // z again where the columns now fall, and the planar match refined from there.
   const double z1 = floor_offset(reference, moving, shift, result.floor_pairs);

@@ -23,13 +23,16 @@ struct MapAlignResult {
   std::size_t columns_used = 0; ///< columns of `moving` that took part (those over `reference`'s area)
   std::size_t floor_pairs = 0;  ///< column pairs the z offset was taken from
   int sectors = 1;              ///< yaw sectors searched (a map far from its frame's origin needs more)
+  bool about_origin = false;    ///< turned about the moving frame's origin (else about its columns' centroid)
 };
 
 /// Registers `moving` onto `reference` (same cell size): z first, as the median height difference
 /// of the lowest surfaces of columns that fall on each other at the guess, then x, y, yaw by
 /// Gauss-Newton on eq. (5) after an exhaustive coarse search of the window in `options` (about the
-/// moving frame's origin: in yaw sectors narrow enough that turning about the columns' centroid
-/// stays within 1 m of turning about the origin; the best-agreeing sector's match wins), then z
+/// moving frame's origin: turning about it when its columns lie near enough that the search's yaw
+/// step stays two cells at their RMS radius, as for a scan's map about its sensor; else about their
+/// centroid, in yaw sectors narrow enough that this stays within 1 m of turning about the origin,
+/// the best-agreeing sector's match winning), then z
 /// again at the result. Both maps are taken as gravity-aligned (their z up), as hmap builds them.
 /// The columns of `moving` over `reference`'s area (its bounds widened by the search) take part,
 /// those within 1024 cells of their centroid. Throws hmap::Error for different cell sizes, a search

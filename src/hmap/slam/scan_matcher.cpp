@@ -21,10 +21,9 @@ constexpr double kMaxStepCells = 4.0;
 /// The coarse search scores the pose with at most this many HVoxels.
 constexpr std::size_t kCoarseHVoxels = 200;
 /// The coarse search takes at most this many steps each way in x and y (validate() keeps
-/// slam.coarse_translation within 100 cells, 50 steps of two cells) and in yaw (the yaw step
-/// follows the scan's radius, which comes from the data: beyond, the step widens).
+/// slam.coarse_translation within 100 cells, 50 steps of two cells); in yaw, ScanMatcher's
+/// kCoarseMaxYawSteps.
 constexpr int kCoarseMaxSteps = 50;
-constexpr int kCoarseMaxYawSteps = 64;
 /// The degeneracy check evaluates the cost with at most this many HVoxels.
 constexpr std::size_t kCurvatureHVoxels = 500;
 /// Least s² of MotionPrior: a run of near-perfect matches must not make the odometry weightless.

@@ -96,6 +96,9 @@ class ScanMatcher {
   /// simulated parking (VLP-16, map.point_distance_threshold 0.8): long route RPE 0.65 % with
   /// every scan matched, 0.43 / 0.46 / 0.47 / 0.54 % with 10 / 20 / 30 / 50 (docs/SLAM.md).
   static constexpr std::size_t kMinHVoxels = 20;
+  /// The coarse search takes at most this many yaw steps each way (its step follows the scan's
+  /// radius, two cells at its RMS radius; beyond this many the step widens).
+  static constexpr int kCoarseMaxYawSteps = 64;
 
   /// Throws hmap::Error for invalid parameters.
   explicit ScanMatcher(const Params& params);
