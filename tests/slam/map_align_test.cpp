@@ -79,6 +79,10 @@ TEST(MapAlign, RecoversAKnownShiftBetweenTwoSessions) {
   EXPECT_NEAR(r.shift.yaw, want_yaw, 0.3 * std::numbers::pi / 180.0);
   EXPECT_GT(r.columns_used, 1000U);
   EXPECT_GT(r.floor_pairs, 1000U);
+  // ±0.4 rad: the yaw step stays two cells at the columns' radius about b's origin, so it is
+  // turned about that origin, in one search.
+  EXPECT_TRUE(r.about_origin);
+  EXPECT_EQ(r.sectors, 1);
   // b moved by the result covers a's columns as b moved by the truth does.
   const auto overlap = [&](const PlanarShift& shift) {
     std::size_t on = 0;
@@ -133,6 +137,7 @@ TEST(MapAlign, FindsAMapFarFromItsOriginOverAllHeadings) {
   options.search_rotation = std::numbers::pi;
   const MapAlignResult r = align_maps(a, b, options);
   EXPECT_GT(r.sectors, 1);
+  EXPECT_FALSE(r.about_origin);  // every heading: at 9-13 m the step would widen past two cells
   EXPECT_NEAR(r.shift.x, want.translation().x(), 0.05);
   EXPECT_NEAR(r.shift.y, want.translation().y(), 0.05);
   EXPECT_NEAR(r.shift.z, want.translation().z(), 0.05);
