@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import hmap
-from conftest import data_dir, require_data
+from conftest import cli_or_skip, data_dir, require_data
 
 
 def test_read_cloud_xyz(tmp_path):
@@ -125,12 +125,6 @@ def test_kitti_sequence_reads_the_real_scans():
 # ---------------------------------------------------------------------------------------------
 # Scan sequences of every kind, through the library's one opener (the CLI's --kitti, files,
 # --rgbd / --tum, --bag): the same points and poses as `hmap map` reads.
-
-def cli_or_skip():
-    cli = pathlib.Path(os.environ.get("HMAP_BIN", ""))
-    if not cli.is_file():
-        pytest.skip("the hmap tool is not built (HMAP_BIN)")
-    return cli
 
 
 def map_like_the_cli(tmp_path, cli, cli_args, sequence):

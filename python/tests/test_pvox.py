@@ -1,21 +1,14 @@
 """hmap.pvox: hand-computed probabilities, the .pvox file equal to `hmap pvox`'s, bad input."""
 
 import math
-import os
-import pathlib
 import subprocess
 
 import numpy as np
 import pytest
 
 import hmap
+from conftest import cli_or_skip
 
-
-def cli_or_skip():
-    cli = pathlib.Path(os.environ.get("HMAP_BIN", ""))
-    if not cli.is_file():
-        pytest.skip("the hmap tool is not built (HMAP_BIN)")
-    return cli
 
 
 def p_of(hits, misses, edge, variance=100e-6, lo=-2.0, hi=3.5, miss=0.4):

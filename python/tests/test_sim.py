@@ -2,8 +2,6 @@
 
 import json
 import math
-import os
-import pathlib
 import subprocess
 import threading
 import time
@@ -12,13 +10,8 @@ import numpy as np
 import pytest
 
 import hmap
+from conftest import cli_or_skip
 
-
-def cli_or_skip():
-    cli = pathlib.Path(os.environ.get("HMAP_BIN", ""))
-    if not cli.is_file():
-        pytest.skip("the hmap tool is not built (HMAP_BIN)")
-    return cli
 
 
 def read_kitti_poses(path):

@@ -1,7 +1,5 @@
 """hmap.slam.Slam: `hmap slam` scan by scan, the same poses as the CLI; hmap.params_for_scan."""
 
-import os
-import pathlib
 import subprocess
 import threading
 
@@ -9,16 +7,10 @@ import numpy as np
 import pytest
 
 import hmap
-from conftest import require_data, scene_points
+from conftest import cli_or_skip, require_data, scene_points
 
 SCANS = 5
 
-
-def cli_or_skip():
-    cli = pathlib.Path(os.environ.get("HMAP_BIN", ""))
-    if not cli.is_file():
-        pytest.skip("the hmap tool is not built (HMAP_BIN)")
-    return cli
 
 
 def test_slam_poses_equal_the_cli_poses(tmp_path):

@@ -1,8 +1,6 @@
 """The writers of hmap.io (`hmap export`'s PLY, PGM + YAML, .bt, and PNG): equal to the CLI's files
 for the same map, decoded and checked against the map by hand, and their errors."""
 
-import os
-import pathlib
 import struct
 import subprocess
 import zlib
@@ -11,13 +9,8 @@ import numpy as np
 import pytest
 
 import hmap
+from conftest import cli_or_skip
 
-
-def cli_or_skip():
-    cli = pathlib.Path(os.environ.get("HMAP_BIN", ""))
-    if not cli.is_file():
-        pytest.skip("the hmap tool is not built (HMAP_BIN)")
-    return cli
 
 
 @pytest.fixture(scope="module")
