@@ -329,8 +329,9 @@ void run_slam(const SlamOptions& o) {
   }
   progress.finish();
 
-  // Loop closure: the pose graph over the key frames, every pose corrected, the map rebuilt from
-  // the scans at the corrected poses (read again; the whole map: docs/SLAM.md).
+  // Loop closure: the pose graph over the key frames, every pose corrected, and the tiles the moved
+  // scans reach rebuilt from the scans, read again (all of the map when scans were merged deskewed:
+  // docs/SLAM.md).
   std::optional<slam::LoopClosureResult> closed;
   std::optional<TileRebuild> rebuilt;
   double ms_graph = 0.0;

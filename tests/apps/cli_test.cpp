@@ -767,7 +767,7 @@ TEST_F(CliTest, SlamContinuesASavedMapInItsFrame) {
     EXPECT_FALSE(std::filesystem::exists(dir_ / "bad")) << extra;
   }
   // slam.* may change for the second session.
-  const CmdResult tuned = run("slam" + second + " --continue " + path("s1/map.hmap") + " --set slam.max_iterations=40 --out " + path("s3"));
+  const CmdResult tuned = run("slam" + second + " --continue " + path("s1/map.hmap") + " --search-yaw 20 --set slam.max_iterations=40 --out " + path("s3"));
   EXPECT_EQ(tuned.code, 0) << tuned.out;
 }
 }  // namespace
