@@ -231,7 +231,6 @@ void run_slam(const SlamOptions& o) {
   double ms_loops = 0.0;
   std::vector<double> closure_ms;  // [ms] per loop closed: the loop step of the scan that closed it  // key frames, sub-maps, place search and verification during the run
   std::size_t deskewed = 0;
-  bool map_from_raw = true;
   std::size_t timed = 0;  // scans whose points carry a time
   // From a bag or an RGB-D folder, scan k + 1 is decoded while scan k is matched; the first, read
   // above, is not read again.
@@ -279,9 +278,6 @@ void run_slam(const SlamOptions& o) {
       relocalise_ms = ms_since(t0);
     }
     deskewed += step.deskewed ? 1 : 0;
-    // The map holds the scans as read, at their poses, unless a scan was merged deskewed or at
-    // another time than its pose's: then a loop closure rebuilds all of it.
-    map_from_raw = map_from_raw && !step.deskewed && step.T_map_merged.matrix() == step.T_map_sensor.matrix();
     timed += point_times.empty() ? 0 : 1;
     const double ms = ms_since(t0);
     ms_total += ms;
@@ -352,7 +348,7 @@ void run_slam(const SlamOptions& o) {
     if (!closed->closures.empty()) {
       const auto t_rebuild = Clock::now();
       CloudReadStats again;
-      rebuilt = slam::map_at_corrected_poses(params, map_from_raw ? &slam.map() : nullptr, estimate, closed->T_map_sensor,
+      rebuilt = slam::map_at_corrected_poses(params, slam.map_holds_scans_as_given() ? &slam.map() : nullptr, estimate, closed->T_map_sensor,
                                              [&](std::size_t k, PointCloud& out) { out = src.read(k, again); });
       ms_rebuild = ms_since(t_rebuild);
       estimate = rebuilt->T_map_sensor;

@@ -86,7 +86,6 @@ struct MapperBox {
   PoseList slam_poses;  ///< the poses SLAM merged its scans at, one per process()
   std::optional<slam::ImuAttitudeFilter> imu;  ///< Slam(params, imu=...): the prior of each scan, as `hmap slam --imu`
   std::optional<slam::LoopCloser> loops;  ///< the Slam's key frames while slam.loop_closure is on (not for a continued map)
-  bool map_from_raw = true;  ///< no scan was merged deskewed or at another time: loop closure rebuilds tiles, not all
   bool loops_closed = false;
 };
 
@@ -515,7 +514,6 @@ py::dict slam_process(PySlam& self, const py::handle& points, std::optional<doub
     if (box.imu) in.imu = box.imu->prior_for_scan(*stamp, in.times, box.slam->velocity().linear);
     step = box.slam->process(in);
     box.slam_poses.push_back(step.T_map_sensor);
-    box.map_from_raw = box.map_from_raw && !step.deskewed && step.T_map_merged.matrix() == step.T_map_sensor.matrix();
     if (box.loops) box.loops->add_scan(pts, step.T_map_sensor);
   }
   return slam_step_dict(step);
@@ -540,7 +538,7 @@ py::dict slam_close_loops(PySlam& self, const py::function& read_scan) {
     closed = box.loops->close();
     built_at = box.slam_poses;
     params = box.slam->params();
-    if (!closed.closures.empty() && box.map_from_raw) {
+    if (!closed.closures.empty() && box.slam->map_holds_scans_as_given()) {
       built.emplace(box.slam->map().params());
       merge_map(*built, box.slam->map());  // into an empty map: an exact copy
     }

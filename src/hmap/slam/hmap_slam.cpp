@@ -69,7 +69,8 @@ HmapSlam::HmapSlam(const Params& params, HMap map, const ContinueOptions& where)
       matcher_(params_),
       refiner_(params_),
       level_hvoxelizer_(params_.map),
-      continuing_(where) {
+      continuing_(where),
+      map_as_given_(false) {
   const PlanarPose& g = where.guess;
   if (!(std::isfinite(g.x) && std::isfinite(g.y) && std::isfinite(g.yaw))) {
     throw Error("continuing a map: the first scan's guess must be finite");
@@ -385,6 +386,7 @@ SlamStep HmapSlam::process(const ScanInput& input) {
   // The floor normal in the map as this scan sees it, for the next scan's tilt prediction.
   if (floor_sensor) floor_up_ = (step.T_map_merged.linear() * *floor_sensor).normalized();
   step.mapping = mapper_.integrate(points_sensor, step.T_map_merged);
+  map_as_given_ = map_as_given_ && !step.deskewed && step.T_map_merged.matrix() == step.T_map_sensor.matrix();
   // (Not for a continued map: rebuilt from the first scans alone, it would lose what was saved.)
   if (!input.times.empty() && params_.slam.deskew >= 1 && !step.deskewed && skewed_.size() == scans_ &&
       skewed_.size() < kMaxSkewedScans && !continuing_) {

@@ -129,6 +129,11 @@ class HmapSlam {
   /// The parameters in force (a continued map's own map parameters with the given slam.*).
   [[nodiscard]] const Params& params() const { return params_; }
   [[nodiscard]] std::size_t scans() const { return scans_; }
+  /// True while the map is exactly the scans given to process(), as given, integrated in order at
+  /// their T_map_sensor (Mapper::integrate): no scan was merged deskewed or at another pose, and
+  /// no saved map was continued. Then a loop closure may rebuild only the tiles its corrections
+  /// reach (slam::map_at_corrected_poses), else all of the map.
+  [[nodiscard]] bool map_holds_scans_as_given() const { return map_as_given_; }
 
  private:
   [[nodiscard]] Twist velocity_between(double dt) const;
@@ -165,6 +170,7 @@ class HmapSlam {
   std::vector<SkewedScan> skewed_;
   std::size_t scans_ = 0;
   std::optional<ContinueOptions> continuing_;  // set: the map was saved before; the first scan is found in it
+  bool map_as_given_ = true;  // map_holds_scans_as_given()
 };
 
 }  // namespace hmap::slam
