@@ -95,6 +95,31 @@ TEST(HmapSlam, FollowsASimulatedDrive) {
   EXPECT_FALSE(slam.map().empty());
 }
 
+TEST(HmapSlam, WallRefinementPlacesScansWithinACellSmallerMatch) {
+  // The same kind of drive at 0.25 m cells, steps of 3 cm and 0.1 deg (a sensor nearly standing
+  // still: the scans bin into the map's cells). With slam.wall_refine the walls' lines refine
+  // every match: each pose within 1 cm and 0.05 deg of the truth.
+  const sim::Scene scene = yard();
+  Params p = yard_params();
+  p.map.cell_size = 0.25;
+  p.slam.min_layer_height = 0.2;
+  p.slam.wall_refine = 1;
+  HmapSlam slam(p);
+  sim::SpinningLidar lidar(sim::SpinningLidarParams::hdl64e());
+  const Attitude att{1.8, 0.0, 0.0};
+  for (int k = 0; k < 6; ++k) {
+    const PlanarPose truth{0.03 * k, -0.01 * k, 0.1 * kDeg * k};
+    const PointCloud scan = lidar.scan(scene, compose(truth, att), 0.1 * k).points_sensor;
+    const SlamStep step = slam.process(scan, std::optional<Attitude>(att));
+    EXPECT_EQ(step.walls.applied, k > 0) << k << " " << step.walls.skipped_because;
+    const PlanarPose est = planar_of(step.T_map_sensor);
+    EXPECT_NEAR(est.x, truth.x, 0.01) << k;
+    EXPECT_NEAR(est.y, truth.y, 0.01) << k;
+    EXPECT_NEAR(est.yaw, truth.yaw, 0.05 * kDeg) << k;
+    if (k > 0) EXPECT_GE(step.walls.pairs, 100U) << k;
+  }
+}
+
 TEST(HmapSlam, RejectsInvalidParameters) {
   Params p;
   p.slam.interpolation_window = 4;

@@ -183,6 +183,16 @@ std::vector<ParamRef> param_refs(Params& p) {
                   s.odometry_sigma_rotation, above(0.0, 10.0)));
   r.push_back(ref("slam.odometry_noise", "-", "odometry's sigma added per metre travelled and per radian turned",
                   s.odometry_noise, closed(0.0, 10.0)));
+  r.push_back(ref_int("slam.wall_refine", "-", "1: refine x, y and yaw against the map's walls after the planar match; 0: off",
+                      s.wall_refine, closed(0.0, 1.0)));
+  r.push_back(ref("slam.wall_min_height", "m", "points of HVoxels at least this tall count as walls (wall refinement)",
+                  s.wall_min_height, above(0.0, 100.0)));
+  r.push_back(ref_int("slam.wall_iterations", "-", "Gauss-Newton iterations of the wall refinement",
+                      s.wall_iterations, closed(1.0, 100.0)));
+  r.push_back(ref("slam.wall_min_pairs", "-", "fewer scan cells paired with a map wall: the pose is kept",
+                  s.wall_min_pairs, closed(3.0, 1e6)));
+  r.push_back(ref("slam.wall_max_rotation", "rad", "a wall refinement turning farther than this is not taken",
+                  s.wall_max_rotation, above(0.0, 1.0)));
   r.push_back(ref("slam.surface_max_height", "m", "HVoxels at most this tall count as horizontal surfaces (attitude fit)",
                   s.surface_max_height, above(0.0, 5.0)));
   r.push_back(ref("slam.attitude_gate", "m", "farthest a scan surface is paired with the map's (attitude fit)",

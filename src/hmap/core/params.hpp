@@ -94,6 +94,15 @@ struct SlamParams {
   double odometry_sigma_rotation = 0.005;    ///< [rad] fixed part of σ in yaw, per scan
   double odometry_noise = 0.05;              ///< [-] σ added per metre travelled and per radian
                                              ///< turned (wheel odometry: 1-5 %)
+  // Sub-cell refinement of x, y and yaw against the map's walls (slam/wall_refiner.hpp).
+  int wall_refine = 0;                     ///< [-] 1: after the planar match, x, y and yaw are refined against
+                                           ///< the lines of the map's tall HVoxels' points; 0: off (the
+                                           ///< default: it halves balm_os0's error but biases a car's
+                                           ///< distance on kitti_hdl64_seq16, docs/SLAM.md "Walls")
+  double wall_min_height = 0.5;            ///< [m] points of HVoxels at least this tall count as walls
+  int wall_iterations = 6;                 ///< [-] Gauss-Newton iterations of the wall refinement
+  double wall_min_pairs = 30;              ///< [-] fewer scan cells paired with a map line: the pose is kept
+  double wall_max_rotation = 0.02;         ///< [rad] a refinement turning farther than this (~1.1°) is not taken
   // z, roll and pitch from the scans (slam/attitude.hpp), when no attitude is given.
   double surface_max_height = 0.3;         ///< [m] HVoxels at most this tall (scan and map) count as horizontal
                                            ///< surfaces for the attitude fit

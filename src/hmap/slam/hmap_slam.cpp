@@ -48,7 +48,14 @@ PlanarPose inverse(const PlanarPose& a) {
 }
 
 HmapSlam::HmapSlam(const Params& params)
-    : params_(params), mapper_(params), matcher_(params), refiner_(params), level_hvoxelizer_(params.map) {}
+    : params_(params),
+      mapper_(params),
+      matcher_(params),
+      refiner_(params),
+      level_hvoxelizer_(params.map),
+      wall_refiner_(params),
+      wall_map_(params.map.cell_size),
+      wall_scan_(params.map.cell_size) {}
 
 namespace {
 
@@ -69,6 +76,9 @@ HmapSlam::HmapSlam(const Params& params, HMap map, const ContinueOptions& where)
       matcher_(params_),
       refiner_(params_),
       level_hvoxelizer_(params_.map),
+      wall_refiner_(params_),
+      wall_map_(params_.map.cell_size),
+      wall_scan_(params_.map.cell_size),
       continuing_(where),
       map_as_given_(false) {
   const PlanarPose& g = where.guess;
@@ -224,6 +234,7 @@ SlamStep HmapSlam::process(const ScanInput& input) {
     return tilt * 10.0 > layer || std::abs(a.z - b.z) > layer;
   };
   bool built = false;
+  std::optional<Attitude> level_at;  // the attitude scan_level_ was last built at for this scan
   std::optional<Eigen::Vector3d> floor_sensor;  // this scan's floor normal in its sensor frame
   if (!given && !imu_tilt) {
     // The tilt that puts this scan's floor normal where the map's floor normal was last seen
@@ -235,6 +246,7 @@ SlamStep HmapSlam::process(const ScanInput& input) {
                     : Eigen::Vector3d(compose(heading, Attitude{}).linear().transpose() * floor_up_);
     for (int pass = 0; pass < 2; ++pass) {
       level_hvoxelizer_.build(points_sensor, compose(PlanarPose{}, attitude), scan_level_);
+      level_at = attitude;
       built = true;
       const auto n_level = floor_normal(scan_level_, params_);
       if (!n_level) break;
@@ -272,6 +284,7 @@ SlamStep HmapSlam::process(const ScanInput& input) {
       std::size_t winner = 0;
       for (std::size_t h = 0; h < count; ++h) {
         level_hvoxelizer_.build(points_sensor, compose(PlanarPose{}, hypotheses[h]), scan_level_);
+        level_at = hypotheses[h];
         const AttitudeFit fit = refiner_.refine(scan_level_, mapper_.map(), step.guess.x, step.guess.y, step.guess.yaw,
                                                 hypotheses[h], floor_in_level(hypotheses[h]), std::nullopt);
         if (fit.agreement > best) {
@@ -329,7 +342,10 @@ SlamStep HmapSlam::process(const ScanInput& input) {
     const auto planar_match = [&](CoarseSearch mode) {
       // The scan's HVoxels in the gravity-aligned sensor frame (x = y = yaw = 0), so that eq. (6)
       // moves them in the plane only.
-      if (!built) level_hvoxelizer_.build(points_sensor, compose(PlanarPose{}, attitude), scan_level_);
+      if (!built) {
+        level_hvoxelizer_.build(points_sensor, compose(PlanarPose{}, attitude), scan_level_);
+        level_at = attitude;
+      }
       built = false;
       step.match = matcher_.match(scan_level_, mapper_.map(), estimate, mode,
                                   scans_ >= 2 && !guess ? std::optional<PlanarPose>(last_) : std::nullopt,
@@ -364,6 +380,23 @@ SlamStep HmapSlam::process(const ScanInput& input) {
     pose_covariance_ = step.matched && !step.match.skipped ? step.match.covariance : predicted;
     constexpr double kMaxVariance = 1e4;  // (100 m)², (100 rad)²
     for (int k = 0; k < 3; ++k) pose_covariance_(k, k) = std::min(pose_covariance_(k, k), kMaxVariance);
+  }
+  if (params_.slam.wall_refine != 0) {
+    // The walls' points in the level frame (scan_level_'s, whose tilt may be a step behind the
+    // final one: a second-order difference in the plane), refined against, then added to the map's.
+    if (!level_at) {
+      level_hvoxelizer_.build(points_sensor, compose(PlanarPose{}, attitude), scan_level_);
+      level_at = attitude;
+    }
+    wall_refiner_.collect(points_sensor, compose(PlanarPose{}, *level_at), scan_level_,
+                          level_hvoxelizer_.cell_of_window(), wall_points_);
+    if (step.matched && !step.match.skipped && !step.match.heading_only && !wall_map_.empty()) {
+      wall_scan_.clear();
+      wall_scan_.add(wall_points_);
+      step.walls = wall_refiner_.refine(wall_scan_, wall_map_, estimate);
+      if (step.walls.applied) estimate = step.walls.pose;
+    }
+    wall_map_.add(wall_points_, estimate);
   }
   step.T_map_merged = compose(estimate, attitude);
   step.merged_at_s = middle;

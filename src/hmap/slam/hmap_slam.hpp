@@ -11,6 +11,7 @@
 #include "hmap/slam/imu.hpp"
 #include "hmap/slam/map_align.hpp"
 #include "hmap/slam/scan_matcher.hpp"
+#include "hmap/slam/wall_refiner.hpp"
 
 namespace hmap::slam {
 
@@ -56,6 +57,9 @@ struct SlamStep {
   bool matched = false;                  ///< false for the first scan (it defines the map frame)
   MatchResult match;
   AttitudeFit attitude;                  ///< the z / roll / pitch fit (attitude.ran false when given)
+  /// The sub-cell refinement of x, y and yaw against the map's walls, after the planar match
+  /// (walls.applied false: not run, or not taken; walls.skipped_because says which).
+  WallRefinement walls;
   int planar_passes = 0;                 ///< planar matches run (a second after a large attitude change)
   /// Which of x, y, z, roll, pitch, yaw the scan constrained (the planar match's curvature for x,
   /// y, yaw; the attitude fit's information for z, roll, pitch). All false for the first scan and
@@ -146,6 +150,10 @@ class HmapSlam {
   Eigen::Vector3d floor_up_ = Eigen::Vector3d::UnitZ();  // the floor's upward normal in the map, last seen
   ScanHVoxelizer level_hvoxelizer_;
   ScanHVoxels scan_level_;
+  WallRefiner wall_refiner_;
+  WallGrid wall_map_;     // the map's wall points' moments (map frame)
+  WallGrid wall_scan_;    // this scan's (level frame)
+  std::vector<Eigen::Vector2d> wall_points_;
   PlanarPose last_;
   PlanarPose previous_;
   Eigen::Matrix3d pose_covariance_ = Eigen::Matrix3d::Zero();  // of last_ (m, m, rad), with odometry
