@@ -217,12 +217,14 @@ void run_slam(const SlamOptions& o) {
   std::size_t coarse = 0;
   std::size_t skipped = 0;
   std::size_t heading_only = 0;
+  std::size_t walls_applied = 0;
+  double wall_yaw_moved = 0.0;  // |yaw change| summed over the refined scans [rad]
   std::size_t iterations = 0;
   double score_sum = 0.0;
   std::string log = "scan,matched,converged,iterations,initial_cost,final_cost,score,hvoxels,degenerate,coarse_search,"
                     "skipped,eig0,eig1,eig2,guess_x,guess_y,guess_yaw,x,y,yaw,z,roll,pitch,attitude_fit,surfaces,surface_rms,"
                     "observable_x,observable_y,observable_z,observable_roll,observable_pitch,observable_yaw,planar_passes,deskewed,"
-                    "imu,tilt_hypotheses,tilt_from_floor,heading_only,ms\n";
+                    "imu,tilt_hypotheses,tilt_from_floor,heading_only,wall_refined,wall_pairs,wall_rms,wall_dx,wall_dy,wall_dyaw,ms\n";
 #ifdef HMAP_HAVE_VIEW
   LiveView live(o.view);  // the map and the estimated path in the browser, as they grow
   std::vector<Eigen::Vector3d> path;
@@ -288,14 +290,16 @@ void run_slam(const SlamOptions& o) {
       const auto& af = step.attitude;
       log += format(
                     "%zu,%d,%d,%d,%.6g,%.6g,%.6g,%zu,%d,%d,%d,%.6g,%.6g,%.6g,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,"
-                    "%d,%zu,%.4f,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%.3f\n",
+                    "%d,%zu,%.4f,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%zu,%.4f,%.5f,%.5f,%.6f,%.3f\n",
                     k, step.matched ? 1 : 0, m.converged ? 1 : 0, m.iterations, m.initial_cost, m.final_cost, m.score,
                     m.hvoxels_used, m.degenerate ? 1 : 0, m.coarse_search ? 1 : 0, m.skipped ? 1 : 0, m.eigenvalues(0),
                     m.eigenvalues(1), m.eigenvalues(2), step.guess.x, step.guess.y, step.guess.yaw, xi.x, xi.y, xi.yaw,
                     at.z, at.roll, at.pitch, af.ran ? 1 : 0, af.surfaces, af.rms, step.observable[0] ? 1 : 0,
                     step.observable[1] ? 1 : 0, step.observable[2] ? 1 : 0, step.observable[3] ? 1 : 0,
                     step.observable[4] ? 1 : 0, step.observable[5] ? 1 : 0, step.planar_passes, step.deskewed ? 1 : 0,
-                    step.imu_used ? 1 : 0, step.tilt_hypotheses, step.tilt_from_floor ? 1 : 0, m.heading_only ? 1 : 0, ms);
+                    step.imu_used ? 1 : 0, step.tilt_hypotheses, step.tilt_from_floor ? 1 : 0, m.heading_only ? 1 : 0,
+                    step.walls.applied ? 1 : 0, step.walls.pairs, step.walls.rms, step.walls.change.x, step.walls.change.y,
+                    step.walls.change.yaw, ms);
     }
     estimate.push_back(step.T_map_sensor);
     if (loops) {
@@ -312,6 +316,8 @@ void run_slam(const SlamOptions& o) {
       coarse += step.match.coarse_search ? 1 : 0;
       skipped += step.match.skipped ? 1 : 0;
       heading_only += step.match.heading_only ? 1 : 0;
+      walls_applied += step.walls.applied ? 1 : 0;
+      wall_yaw_moved += std::abs(step.walls.change.yaw);
       iterations += static_cast<std::size_t>(step.match.iterations);
       score_sum += step.match.skipped ? 0.0 : step.match.score;
     }
@@ -414,6 +420,12 @@ void run_slam(const SlamOptions& o) {
     }
     if (params.slam.loop_closure != 0) std::printf(" Loop closure is off for a continued map (its rebuild would drop the saved map).");
     std::printf("\n");
+  }
+  if (params.slam.wall_refine != 0) {
+    std::printf("Walls (slam.wall_refine): %zu of %zu matches refined against the map's walls, by %.3f deg of yaw on "
+                "average (matches.csv: wall_*).\n",
+                walls_applied, matches,
+                walls_applied > 0 ? wall_yaw_moved / static_cast<double>(walls_applied) * 180.0 / std::numbers::pi : 0.0);
   }
   if (closed) {
     const std::size_t kfs = closed->keyframes;

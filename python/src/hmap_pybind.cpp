@@ -450,6 +450,14 @@ py::dict slam_step_dict(const slam::SlamStep& step) {
   fit["roll"] = af.attitude.roll;
   fit["pitch"] = af.attitude.pitch;
   d["attitude_fit"] = fit;
+  py::dict walls;  // slam.wall_refine: the refinement against the map's walls
+  walls["applied"] = step.walls.applied;
+  walls["pairs"] = step.walls.pairs;
+  walls["rms"] = step.walls.rms;
+  walls["iterations"] = step.walls.iterations;
+  walls["change"] = py::make_tuple(step.walls.change.x, step.walls.change.y, step.walls.change.yaw);
+  walls["skipped_because"] = std::string(step.walls.skipped_because);
+  d["walls"] = walls;
   py::dict observable;
   const char* axes[] = {"x", "y", "z", "roll", "pitch", "yaw"};
   for (std::size_t a = 0; a < 6; ++a) observable[axes[a]] = step.observable[a];
@@ -1113,7 +1121,8 @@ PYBIND11_MODULE(_hmap, m) {
            "and yaw start the match (odometry; None: constant velocity). Runs without the GIL. Returns the step as "
            "a dict: T_map_sensor (4x4, at the stamp), T_map_merged (4x4, the pose the scan was merged at, "
            "merged_at_s [s] after the stamp: the sweep's middle when deskewed by the estimates' velocity), matched, converged, iterations, initial_cost, final_cost, score (mean M_H), "
-           "hvoxels_used, eigenvalues, degenerate, coarse_search, skipped, heading_only, attitude_fit, observable ({'x': bool, "
+           "hvoxels_used, eigenvalues, degenerate, coarse_search, skipped, heading_only, attitude_fit, walls (slam.wall_refine: "
+           "{'applied', 'pairs', 'rms', 'iterations', 'change': (dx, dy, dyaw), 'skipped_because'}), observable ({'x': bool, "
            "... 'yaw': bool}), planar_passes, deskewed, sweep_velocity, imu_used, tilt_hypotheses, tilt_from_floor, "
            "mapping (the map update's figures), relocalised (the first scan of a continued map: {'shift': (x, y, z, yaw), "
            "'score', 'columns_used', 'floor_pairs'}; else None).")

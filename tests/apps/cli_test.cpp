@@ -408,6 +408,46 @@ TEST_F(CliTest, SlamLoopClosureFlagsAndSummary) {
   EXPECT_NE(bad.out.find("slam.loop_min_score"), std::string::npos) << bad.out;
 }
 
+// slam --set slam.wall_refine=1: the summary says how many matches the walls refined, matches.csv
+// has a wall_* row per scan (the first scan: none); a bad value is one line naming the parameter.
+TEST_F(CliTest, SlamWallRefinementSummaryAndColumns) {
+  const CmdResult sim = run("simulate --scene office --sensor os0-64 --frames 6 --stride 3 --out " + path("seq"));
+  ASSERT_EQ(sim.code, 0) << sim.out;
+  const CmdResult on = run("slam --kitti " + path("seq") + " --set slam.wall_refine=1 --no-loop-closure --out " + path("w"));
+  ASSERT_EQ(on.code, 0) << on.out;
+  EXPECT_NE(on.out.find("Walls (slam.wall_refine): "), std::string::npos) << on.out;
+  std::ifstream csv(dir_ / "w" / "matches.csv");
+  std::string header;
+  std::getline(csv, header);
+  const auto cells = [](const std::string& line) {
+    std::vector<std::string> out;
+    std::stringstream ss(line);
+    for (std::string c; std::getline(ss, c, ',');) out.push_back(c);
+    return out;
+  };
+  const std::vector<std::string> names = cells(header);
+  const auto at = std::find(names.begin(), names.end(), "wall_refined");
+  ASSERT_NE(at, names.end()) << header;
+  const auto column = static_cast<std::size_t>(at - names.begin());
+  std::size_t refined = 0;
+  std::size_t rows = 0;
+  for (std::string line; std::getline(csv, line); ++rows) {
+    const std::vector<std::string> row = cells(line);
+    ASSERT_EQ(row.size(), names.size()) << line;
+    if (rows == 0) EXPECT_EQ(row[column], "0");  // the first scan defines the map
+    refined += row[column] == "1" ? 1 : 0;
+  }
+  EXPECT_EQ(rows, 6U);
+  EXPECT_GE(refined, 1U);  // the office's walls refine the matches
+  const CmdResult off = run("slam --kitti " + path("seq") + " --no-loop-closure --out " + path("off"));
+  ASSERT_EQ(off.code, 0) << off.out;
+  EXPECT_EQ(off.out.find("Walls (slam.wall_refine)"), std::string::npos) << off.out;
+  const CmdResult bad = run("slam --kitti " + path("seq") + " --set slam.wall_band_height=0 --out " + path("x"));
+  EXPECT_EQ(bad.code, 2);
+  EXPECT_EQ(lines(bad.out), 1U) << bad.out;
+  EXPECT_NE(bad.out.find("slam.wall_band_height"), std::string::npos) << bad.out;
+}
+
 TEST_F(CliTest, SlamAndPvoxReadRgbdFrames) {
   HMAP_REQUIRE_DATA("rgbd_7scenes");
   const std::string rgbd = (test::data_dir() / "rgbd_7scenes").string();

@@ -187,6 +187,8 @@ std::vector<ParamRef> param_refs(Params& p) {
                       s.wall_refine, closed(0.0, 1.0)));
   r.push_back(ref("slam.wall_min_height", "m", "points of HVoxels at least this tall count as walls (wall refinement)",
                   s.wall_min_height, above(0.0, 100.0)));
+  r.push_back(ref("slam.wall_band_height", "m", "the walls' plan moments are kept per height band this tall",
+                  s.wall_band_height, closed(0.01, 100.0)));
   r.push_back(ref_int("slam.wall_iterations", "-", "Gauss-Newton iterations of the wall refinement",
                       s.wall_iterations, closed(1.0, 100.0)));
   r.push_back(ref("slam.wall_min_pairs", "-", "fewer scan cells paired with a map wall: the pose is kept",

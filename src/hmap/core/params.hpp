@@ -100,6 +100,7 @@ struct SlamParams {
                                            ///< default: it halves balm_os0's error but biases a car's
                                            ///< distance on kitti_hdl64_seq16, docs/SLAM.md "Walls")
   double wall_min_height = 0.5;            ///< [m] points of HVoxels at least this tall count as walls
+  double wall_band_height = 0.5;           ///< [m] the walls' moments are kept per height band this tall
   int wall_iterations = 6;                 ///< [-] Gauss-Newton iterations of the wall refinement
   double wall_min_pairs = 30;              ///< [-] fewer scan cells paired with a map line: the pose is kept
   double wall_max_rotation = 0.02;         ///< [rad] a refinement turning farther than this (~1.1°) is not taken

@@ -54,8 +54,8 @@ HmapSlam::HmapSlam(const Params& params)
       refiner_(params),
       level_hvoxelizer_(params.map),
       wall_refiner_(params),
-      wall_map_(params.map.cell_size),
-      wall_scan_(params.map.cell_size) {}
+      wall_map_(params.map.cell_size, params.slam.wall_band_height),
+      wall_scan_(params.map.cell_size, params.slam.wall_band_height) {}
 
 namespace {
 
@@ -77,8 +77,8 @@ HmapSlam::HmapSlam(const Params& params, HMap map, const ContinueOptions& where)
       refiner_(params_),
       level_hvoxelizer_(params_.map),
       wall_refiner_(params_),
-      wall_map_(params_.map.cell_size),
-      wall_scan_(params_.map.cell_size),
+      wall_map_(params_.map.cell_size, params_.slam.wall_band_height),
+      wall_scan_(params_.map.cell_size, params_.slam.wall_band_height),
       continuing_(where),
       map_as_given_(false) {
   const PlanarPose& g = where.guess;

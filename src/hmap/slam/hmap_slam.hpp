@@ -153,7 +153,7 @@ class HmapSlam {
   WallRefiner wall_refiner_;
   WallGrid wall_map_;     // the map's wall points' moments (map frame)
   WallGrid wall_scan_;    // this scan's (level frame)
-  std::vector<Eigen::Vector2d> wall_points_;
+  std::vector<Eigen::Vector3d> wall_points_;
   PlanarPose last_;
   PlanarPose previous_;
   Eigen::Matrix3d pose_covariance_ = Eigen::Matrix3d::Zero();  // of last_ (m, m, rad), with odometry

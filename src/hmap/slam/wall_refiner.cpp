@@ -9,33 +9,35 @@
 
 namespace hmap::slam {
 
-WallGrid::WallGrid(double cell_size) : cell_(cell_size) {
+WallGrid::WallGrid(double cell_size, double band_height) : cell_(cell_size), band_(band_height) {
   if (!(cell_size > 0.0) || !std::isfinite(cell_size)) throw Error("wall grid: the cell size must be positive");
+  if (!(band_height > 0.0) || !std::isfinite(band_height)) throw Error("wall grid: the band height must be positive");
 }
 
-CellKey WallGrid::key_of(double x, double y) const {
-  return {static_cast<std::int32_t>(std::floor(x / cell_)), static_cast<std::int32_t>(std::floor(y / cell_))};
+WallKey WallGrid::key_of(double x, double y, double z) const {
+  return {static_cast<std::int32_t>(std::floor(x / cell_)), static_cast<std::int32_t>(std::floor(y / cell_)),
+          static_cast<std::int32_t>(std::floor(z / band_))};
 }
 
-const PlanMoments* WallGrid::at(const CellKey& key) const {
-  const auto it = cells_.find(pack(key));
+const PlanMoments* WallGrid::at(const WallKey& key) const {
+  const auto it = cells_.find(key);
   return it == cells_.end() ? nullptr : &it->second;
 }
 
-void WallGrid::add(std::span<const Eigen::Vector2d> points) { add(points, PlanarPose{}); }
+void WallGrid::add(std::span<const Eigen::Vector3d> points) { add(points, PlanarPose{}); }
 
-void WallGrid::add(std::span<const Eigen::Vector2d> points, const PlanarPose& pose) {
+void WallGrid::add(std::span<const Eigen::Vector3d> points, const PlanarPose& pose) {
   const double c = std::cos(pose.yaw);
   const double s = std::sin(pose.yaw);
-  constexpr double kFar = 1e9;  // cells: beyond, the key would overflow
-  for (const Eigen::Vector2d& p : points) {
+  constexpr double kFar = 1e9;  // cells or bands: beyond, the key would overflow
+  for (const Eigen::Vector3d& p : points) {
     const double x = pose.x + c * p.x() - s * p.y();
     const double y = pose.y + s * p.x() + c * p.y();
-    if (!(std::abs(x / cell_) < kFar) || !(std::abs(y / cell_) < kFar)) continue;
-    const CellKey key = key_of(x, y);
+    if (!(std::abs(x / cell_) < kFar) || !(std::abs(y / cell_) < kFar) || !(std::abs(p.z() / band_) < kFar)) continue;
+    const WallKey key = key_of(x, y, p.z());
     const auto dx = static_cast<float>(x - key.i * cell_);
     const auto dy = static_cast<float>(y - key.j * cell_);
-    PlanMoments& m = cells_[pack(key)];
+    PlanMoments& m = cells_[key];
     m.n += 1.0F;
     m.sx += dx;
     m.sy += dy;
@@ -45,14 +47,14 @@ void WallGrid::add(std::span<const Eigen::Vector2d> points, const PlanarPose& po
   }
 }
 
-std::optional<PlanLine> line_around(const WallGrid& grid, const CellKey& key, double min_points,
+std::optional<PlanLine> line_around(const WallGrid& grid, const WallKey& key, double min_points,
                                     double max_thickness) {
   // The nine cells' moments about the centre cell's corner (double: sums of up to millions of points).
   double n = 0.0, sx = 0.0, sy = 0.0, sxx = 0.0, sxy = 0.0, syy = 0.0;
   const double cell = grid.cell_size();
   for (int di = -1; di <= 1; ++di) {
     for (int dj = -1; dj <= 1; ++dj) {
-      const PlanMoments* m = grid.at({key.i + di, key.j + dj});
+      const PlanMoments* m = grid.at({key.i + di, key.j + dj, key.k});
       if (m == nullptr) continue;
       const double ox = di * cell;
       const double oy = dj * cell;
@@ -92,7 +94,7 @@ WallRefiner::WallRefiner(const Params& params) : params_(params) { validate(para
 
 void WallRefiner::collect(std::span<const Point3f> points_sensor, const Pose& T_level_sensor,
                           const ScanHVoxels& scan_level, const std::vector<std::uint32_t>& cell_of_window,
-                          std::vector<Eigen::Vector2d>& out) const {
+                          std::vector<Eigen::Vector3d>& out) const {
   out.clear();
   const double cell = params_.map.cell_size;
   const auto min_height = static_cast<float>(params_.slam.wall_min_height);
@@ -112,7 +114,7 @@ void WallRefiner::collect(std::span<const Point3f> points_sensor, const Pose& T_
     const auto z = static_cast<float>(p.z());
     for (const HVoxel& h : scan_level.hvoxels_of(scan_level.cells[slot - 1])) {
       if (h.height() >= min_height && z >= h.z_min && z <= h.z_max) {
-        out.emplace_back(p.x(), p.y());
+        out.push_back(p);
         break;
       }
     }
@@ -137,18 +139,17 @@ WallRefinement WallRefiner::refine(const WallGrid& scan, const WallGrid& map, co
   struct Sample {
     Eigen::Vector2d v;
     Eigen::Vector2d normal;
+    std::int32_t band;
   };
   std::vector<Sample> samples;
   samples.reserve(scan.size());
   double radius_sq = 0.0;
-  for (const auto& [packed, m] : scan.cells()) {
+  for (const auto& [key, m] : scan.cells()) {
     if (m.n < kMinCellPoints) continue;
-    const CellKey key{static_cast<std::int32_t>(static_cast<std::uint32_t>(packed >> 32)),
-                      static_cast<std::int32_t>(static_cast<std::uint32_t>(packed & 0xffffffffU))};
     const std::optional<PlanLine> own = line_around(scan, key, kMinLinePoints, max_thickness);
     if (!own) continue;
     const Eigen::Vector2d v = scan.corner(key) + Eigen::Vector2d(m.sx / m.n, m.sy / m.n);
-    samples.push_back({v, own->normal});
+    samples.push_back({v, own->normal, key.k});
     radius_sq += v.squaredNorm();
   }
   if (samples.size() < static_cast<std::size_t>(params_.slam.wall_min_pairs)) {
@@ -157,12 +158,10 @@ WallRefinement WallRefiner::refine(const WallGrid& scan, const WallGrid& map, co
   }
   const double rho = std::max(cell, std::sqrt(radius_sq / static_cast<double>(samples.size())));
 
-  std::unordered_map<std::uint64_t, std::optional<PlanLine>> lines;  // map cell -> its line, per call
-  const auto line_of = [&](const CellKey& key) -> const std::optional<PlanLine>& {
-    const std::uint64_t k =
-        (static_cast<std::uint64_t>(static_cast<std::uint32_t>(key.i)) << 32) | static_cast<std::uint32_t>(key.j);
-    auto it = lines.find(k);
-    if (it == lines.end()) it = lines.emplace(k, line_around(map, key, kMinLinePoints, max_thickness)).first;
+  std::unordered_map<WallKey, std::optional<PlanLine>, WallKeyHash> lines;  // map cell -> its line, per call
+  const auto line_of = [&](const WallKey& key) -> const std::optional<PlanLine>& {
+    auto it = lines.find(key);
+    if (it == lines.end()) it = lines.emplace(key, line_around(map, key, kMinLinePoints, max_thickness)).first;
     return it->second;
   };
 
@@ -177,7 +176,8 @@ WallRefinement WallRefiner::refine(const WallGrid& scan, const WallGrid& map, co
     for (const Sample& sample : samples) {
       const Eigen::Vector2d& v = sample.v;
       const Eigen::Vector2d p{pose.x + c * v.x() - s * v.y(), pose.y + s * v.x() + c * v.y()};
-      const std::optional<PlanLine>& line = line_of(map.key_of(p.x(), p.y()));
+      const WallKey cell = map.key_of(p.x(), p.y(), 0.0);
+      const std::optional<PlanLine>& line = line_of({cell.i, cell.j, sample.band});
       if (!line) continue;
       // The same wall: the scan's line turned into the map lies along the map's (within ~20°).
       const Eigen::Vector2d n_map{c * sample.normal.x() - s * sample.normal.y(), s * sample.normal.x() + c * sample.normal.y()};
@@ -225,6 +225,7 @@ WallRefinement WallRefiner::refine(const WallGrid& scan, const WallGrid& map, co
     return result;
   }
   result.pose = pose;
+  result.change = {pose.x - guess.x, pose.y - guess.y, pose.yaw - guess.yaw};
   result.applied = true;
   return result;
 }

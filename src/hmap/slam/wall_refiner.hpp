@@ -31,39 +31,58 @@ struct PlanMoments {
   float sxx = 0.0F, sxy = 0.0F, syy = 0.0F;  ///< [m²]
 };
 
-/// A grid of PlanMoments at one cell size, sparse.
+/// A cell of a WallGrid: the map cell (i, j) and the height band k (z in [k·band, (k+1)·band)).
+struct WallKey {
+  std::int32_t i = 0;
+  std::int32_t j = 0;
+  std::int32_t k = 0;
+  friend bool operator==(const WallKey&, const WallKey&) = default;
+};
+
+struct WallKeyHash {
+  std::size_t operator()(const WallKey& key) const noexcept {
+    std::uint64_t h = static_cast<std::uint32_t>(key.i) * 0x9E3779B97F4A7C15ULL;
+    h ^= (static_cast<std::uint64_t>(static_cast<std::uint32_t>(key.j)) * 0xC2B2AE3D27D4EB4FULL) + (h << 6) + (h >> 2);
+    h ^= (static_cast<std::uint64_t>(static_cast<std::uint32_t>(key.k)) * 0x165667B19E3779F9ULL) + (h << 6) + (h >> 2);
+    return static_cast<std::size_t>(h);
+  }
+};
+
+/// A grid of PlanMoments per map cell and height band, sparse. The bands keep a slanted or
+/// stepped surface's plan position at the heights it was seen at: a scan that sees a car's back
+/// or a balcony lower down than the map's earlier scans did is compared with the same heights.
 class WallGrid {
  public:
-  explicit WallGrid(double cell_size);
+  /// Throws hmap::Error unless both are positive and finite.
+  WallGrid(double cell_size, double band_height);
 
   void clear() { cells_.clear(); }
   [[nodiscard]] bool empty() const { return cells_.empty(); }
   [[nodiscard]] std::size_t size() const { return cells_.size(); }
   [[nodiscard]] double cell_size() const { return cell_; }
+  [[nodiscard]] double band_height() const { return band_; }
 
-  /// Adds plan positions (already in the grid's frame). Non-finite ones are skipped.
-  void add(std::span<const Eigen::Vector2d> points);
-  /// Adds points given in another frame: p_grid = R(yaw)·p + (x, y).
-  void add(std::span<const Eigen::Vector2d> points, const PlanarPose& pose);
+  /// Adds points (already in the grid's frame; z picks the band). Non-finite ones are skipped.
+  void add(std::span<const Eigen::Vector3d> points);
+  /// Adds points given in another, level frame: (x, y) turned by R(yaw) and moved by (x, y); z kept.
+  void add(std::span<const Eigen::Vector3d> points, const PlanarPose& pose);
 
-  /// The cell of a plan position.
-  [[nodiscard]] CellKey key_of(double x, double y) const;
-  /// The moments of a cell; nullptr when nothing fell in it.
-  [[nodiscard]] const PlanMoments* at(const CellKey& key) const;
+  /// The cell and band of a position.
+  [[nodiscard]] WallKey key_of(double x, double y, double z) const;
+  /// The moments of a cell and band; nullptr when nothing fell in it.
+  [[nodiscard]] const PlanMoments* at(const WallKey& key) const;
   /// The cells with their moments, in no particular order.
   [[nodiscard]] const auto& cells() const { return cells_; }
-  /// The lower corner of a cell [m].
-  [[nodiscard]] Eigen::Vector2d corner(const CellKey& key) const { return {key.i * cell_, key.j * cell_}; }
+  /// The lower corner of a cell in the plane [m].
+  [[nodiscard]] Eigen::Vector2d corner(const WallKey& key) const { return {key.i * cell_, key.j * cell_}; }
 
  private:
-  static std::uint64_t pack(const CellKey& k) {
-    return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(k.i)) << 32) | static_cast<std::uint32_t>(k.j);
-  }
   double cell_;
-  std::unordered_map<std::uint64_t, PlanMoments> cells_;
+  double band_;
+  std::unordered_map<WallKey, PlanMoments, WallKeyHash> cells_;
 };
 
-/// A line through the moments of a map cell and its eight neighbours.
+/// A line through the moments of a grid cell and its eight neighbours in the same band.
 struct PlanLine {
   Eigen::Vector2d centre = Eigen::Vector2d::Zero();  ///< [m] their centroid
   Eigen::Vector2d normal = Eigen::Vector2d::UnitX();  ///< unit, across the line
@@ -71,16 +90,17 @@ struct PlanLine {
   double thickness = 0.0;                             ///< [m] RMS spread across the line
 };
 
-/// The line fitted to the moments of `key` and its eight neighbours, when they hold at least
-/// `min_points` points spread along a line (RMS across it at most `max_thickness` and under a
-/// quarter of the spread along it); nullopt for a corner, a pole or too few points.
-[[nodiscard]] std::optional<PlanLine> line_around(const WallGrid& grid, const CellKey& key, double min_points,
+/// The line fitted to the moments of `key` and its eight neighbours (same band), when they hold
+/// at least `min_points` points spread along a line (RMS across it at most `max_thickness` and
+/// under a quarter of the spread along it); nullopt for a corner, a pole or too few points.
+[[nodiscard]] std::optional<PlanLine> line_around(const WallGrid& grid, const WallKey& key, double min_points,
                                                   double max_thickness);
 
 /// What the refinement did on one scan.
 struct WallRefinement {
   PlanarPose pose;             ///< the refined pose (the guess when not applied)
   bool applied = false;        ///< the refinement moved the pose
+  PlanarPose change;           ///< pose − guess, component by component (zero when not applied)
   int iterations = 0;
   std::size_t pairs = 0;       ///< scan cells paired with a map line at the last iteration
   double rms = 0.0;            ///< [m] RMS distance of those pairs to their lines
@@ -97,13 +117,13 @@ class WallRefiner {
   /// Throws hmap::Error for invalid parameters.
   explicit WallRefiner(const Params& params);
 
-  /// The plan positions, in the level frame T_level_sensor puts them in, of the points of
+  /// The positions, in the level frame T_level_sensor puts them in, of the points of
   /// `points_sensor` that lie in an HVoxel at least slam.wall_min_height tall of their cell in
   /// `scan_level` (built from the same points at T_level_sensor; `cell_of_window` is its
   /// ScanHVoxelizer's): walls, cars, trunks; not floors, kerbs or ceilings. Points out of
   /// map.min_range..max_range or not finite are left out, as the HVoxelizer left them.
   void collect(std::span<const Point3f> points_sensor, const Pose& T_level_sensor, const ScanHVoxels& scan_level,
-               const std::vector<std::uint32_t>& cell_of_window, std::vector<Eigen::Vector2d>& out) const;
+               const std::vector<std::uint32_t>& cell_of_window, std::vector<Eigen::Vector3d>& out) const;
 
   /// Moves `guess` so that the centroids of `scan` (the scan's wall points binned in its level
   /// frame) lie on the lines of `map`. Steps are taken only along the directions the pairs
