@@ -127,7 +127,7 @@ class WallRefiner {
 
   /// Moves `guess` so that the centroids of `scan` (the scan's wall points binned in its level
   /// frame) lie on the lines of `map`. Steps are taken only along the directions the pairs
-  /// constrain; the result is kept only when at least slam.wall_min_pairs pairs held and it moved
+  /// constrain (eigenvalues at least slam.degeneracy_ratio of the largest); the result is kept only when at least slam.wall_min_pairs pairs held and it moved
   /// under a cell and slam.wall_max_rotation from the guess.
   [[nodiscard]] WallRefinement refine(const WallGrid& scan, const WallGrid& map, const PlanarPose& guess) const;
 
