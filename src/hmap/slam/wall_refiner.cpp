@@ -179,8 +179,8 @@ WallRefinement WallRefiner::refine(const WallGrid& scan, const WallGrid& map, co
     for (const Sample& sample : samples) {
       const Eigen::Vector2d& v = sample.v;
       const Eigen::Vector2d p{pose.x + c * v.x() - s * v.y(), pose.y + s * v.x() + c * v.y()};
-      const WallKey cell = map.key_of(p.x(), p.y(), 0.0);
-      const std::optional<PlanLine>& line = line_of({cell.i, cell.j, sample.band});
+      const WallKey under = map.key_of(p.x(), p.y(), 0.0);  // the map cell p falls in (its band: the sample's)
+      const std::optional<PlanLine>& line = line_of({under.i, under.j, sample.band});
       if (!line) continue;
       // The same wall: the scan's line turned into the map lies along the map's (within ~20°).
       const Eigen::Vector2d n_map{c * sample.normal.x() - s * sample.normal.y(), s * sample.normal.x() + c * sample.normal.y()};
