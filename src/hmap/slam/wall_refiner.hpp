@@ -39,12 +39,11 @@ struct WallKey {
   friend bool operator==(const WallKey&, const WallKey&) = default;
 };
 
+/// The map's CellKeyHash of (i, j), with the band mixed in.
 struct WallKeyHash {
   std::size_t operator()(const WallKey& key) const noexcept {
-    std::uint64_t h = static_cast<std::uint32_t>(key.i) * 0x9E3779B97F4A7C15ULL;
-    h ^= (static_cast<std::uint64_t>(static_cast<std::uint32_t>(key.j)) * 0xC2B2AE3D27D4EB4FULL) + (h << 6) + (h >> 2);
-    h ^= (static_cast<std::uint64_t>(static_cast<std::uint32_t>(key.k)) * 0x165667B19E3779F9ULL) + (h << 6) + (h >> 2);
-    return static_cast<std::size_t>(h);
+    return CellKeyHash{}(CellKey{key.i, key.j}) ^
+           static_cast<std::size_t>(static_cast<std::uint64_t>(static_cast<std::uint32_t>(key.k)) * 0x9E3779B97F4A7C15ULL);
   }
 };
 
