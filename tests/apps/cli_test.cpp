@@ -434,7 +434,9 @@ TEST_F(CliTest, SlamWallRefinementSummaryAndColumns) {
   for (std::string line; std::getline(csv, line); ++rows) {
     const std::vector<std::string> row = cells(line);
     ASSERT_EQ(row.size(), names.size()) << line;
-    if (rows == 0) EXPECT_EQ(row[column], "0");  // the first scan defines the map
+    if (rows == 0) {
+      EXPECT_EQ(row[column], "0");  // the first scan defines the map
+    }
     refined += row[column] == "1" ? 1 : 0;
   }
   EXPECT_EQ(rows, 6U);

@@ -10,7 +10,7 @@
 #include "hmap/sim/sensors.hpp"
 
 namespace hmap {
-namespace {
+namespace elevation_occupancy_test {
 
 Params table_params() {
   Params p = indoor_preset();  // d_pth 0.03
@@ -179,5 +179,5 @@ TEST(ElevationOccupancyTest, OfficeTableOccupiedFloorFree) {
   EXPECT_GE(floor_free, floor_cells * 8 / 10);
 }
 
-}  // namespace
+}  // namespace elevation_occupancy_test
 }  // namespace hmap

@@ -6,7 +6,7 @@
 #include "hmap/ground/ground_patches.hpp"
 
 namespace hmap {
-namespace {
+namespace ground_tracker_test {
 
 constexpr double kCell = 0.1;  // [m]
 
@@ -186,5 +186,5 @@ TEST(GroundTrackerTest, SeedsOnTheGroundNotOnTheCarBodyAtQuarterMetreCells) {
   for (const GroundPatch& g : tracker.patches()) EXPECT_NEAR(g.center.z(), -1.73, 0.05);
 }
 
-}  // namespace
+}  // namespace ground_tracker_test
 }  // namespace hmap

@@ -3,7 +3,7 @@
 #include <gtest/gtest.h>
 
 namespace hmap {
-namespace {
+namespace extrusion_test {
 
 MapParams params() {
   MapParams p;
@@ -148,5 +148,5 @@ TEST(ExtrusionTest, PointLikeHVoxelInsideFreeIsReached) {
   EXPECT_TRUE(c.empty());
 }
 
-}  // namespace
+}  // namespace extrusion_test
 }  // namespace hmap

@@ -8,7 +8,7 @@
 #include <random>
 
 namespace hmap {
-namespace {
+namespace free_space_test {
 
 MapParams params() {
   MapParams p;
@@ -163,5 +163,5 @@ TEST(FreeSpaceTest, LowDensityHVoxelsCastNoRay) {
   EXPECT_TRUE(tracer.cells().empty());
 }
 
-}  // namespace
+}  // namespace free_space_test
 }  // namespace hmap

@@ -13,7 +13,7 @@
 #include "common/same_map.hpp"
 
 namespace hmap {
-namespace {
+namespace map_merge_test {
 
 Params params(double cell = 0.25) {
   Params p = outdoor_preset();
@@ -410,5 +410,5 @@ TEST(PoseDisplacementBound, IsTheShiftPlusTheTurnAtTheRange) {
   EXPECT_EQ(s.lo.j, s.lo.i);
 }
 
-}  // namespace
+}  // namespace map_merge_test
 }  // namespace hmap

@@ -8,7 +8,7 @@
 #include <cmath>
 
 namespace hmap {
-namespace {
+namespace occupancy_update_test {
 
 Params params() {
   Params p = indoor_preset();
@@ -104,11 +104,11 @@ TEST(BelowAlongTest, StretchOfALinearHeightUnderALimit) {
   EXPECT_EQ(hi, 1.0);
 }
 
-}  // namespace
+}  // namespace occupancy_update_test
 }  // namespace hmap
 
 namespace hmap {
-namespace {
+namespace occupancy_update_test {
 
 // The grid judged from a finished map (export --pgm), beyond the ground's reach: a wall whose foot
 // stands on the nearest patch's plane is blocked, anything else stays unknown (balm_os0's west
@@ -164,5 +164,5 @@ TEST(OccupancyFromMapTest, BeyondTheGroundsReachOnlyObstaclesStandingOnItsPlaneA
   EXPECT_FALSE(occupancy_from_map(map, ground, p, p.occupancy.ground_reach).log_odds_at(foot).has_value());
 }
 
-}  // namespace
+}  // namespace occupancy_update_test
 }  // namespace hmap

@@ -11,7 +11,7 @@
 #include "hmap/occupancy/occupancy_update.hpp"
 
 namespace hmap {
-namespace {
+namespace occupancy_updater_test {
 
 Params params() {
   Params p = outdoor_preset();
@@ -260,5 +260,5 @@ TEST(OccupancyUpdaterTest, EmptyScanAndNoGround) {
   EXPECT_THROW(OccupancyUpdater{bad}, Error);
 }
 
-}  // namespace
+}  // namespace occupancy_updater_test
 }  // namespace hmap

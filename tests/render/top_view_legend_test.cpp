@@ -13,7 +13,7 @@
 #include "hmap/render/text.hpp"
 
 namespace hmap::render {
-namespace {
+namespace top_view_legend_test {
 
 std::array<std::uint8_t, 3> pixel(const RgbImage& img, int x, int y) {
   const std::size_t k = (static_cast<std::size_t>(y) * static_cast<std::size_t>(img.width) + static_cast<std::size_t>(x)) * 3;
@@ -143,5 +143,5 @@ TEST(TopViewLegend, HeightViewPathsAreWhiteThenRedAndTheHeightEndsAreNamed) {
             (std::array<std::uint8_t, 3>{legend[0].r, legend[0].g, legend[0].b}));
 }
 
-}  // namespace
+}  // namespace top_view_legend_test
 }  // namespace hmap::render

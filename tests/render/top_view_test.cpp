@@ -11,7 +11,7 @@
 #include "hmap/render/render.hpp"
 
 namespace hmap::render {
-namespace {
+namespace top_view_test {
 
 std::array<std::uint8_t, 3> pixel(const RgbImage& img, int x, int y) {
   const std::size_t k = (static_cast<std::size_t>(y) * static_cast<std::size_t>(img.width) + static_cast<std::size_t>(x)) * 3;
@@ -92,5 +92,5 @@ TEST(TopView, OccupancyLayerIsTheGridAsMapServerDrawsIt) {
   EXPECT_EQ(pixel(pic.image, 2, 0), (std::array<std::uint8_t, 3>{205, 205, 205}));  // never observed
 }
 
-}  // namespace
+}  // namespace top_view_test
 }  // namespace hmap::render

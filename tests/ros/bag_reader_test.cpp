@@ -249,7 +249,9 @@ TEST_F(BagReaderTest, ACutOffBagIsReadUpToItsLastWholeMessage) {
       for (const auto& topic : info.topics) EXPECT_EQ(topic.messages, layout.whole_before(cut.at, topic.name)) << topic.name;
       EXPECT_GE(info.scanned_to, layout.last_whole_at(cut.at));
       EXPECT_LE(info.scanned_to, cut.at);
-      if (cut.readable_end != 0) EXPECT_EQ(info.scanned_to, cut.readable_end);
+      if (cut.readable_end != 0) {
+        EXPECT_EQ(info.scanned_to, cut.readable_end);
+      }
       EXPECT_EQ(info.file_size, cut.at);
       ASSERT_EQ(info.warnings.size(), 1U);
       const std::string& w = info.warnings[0];

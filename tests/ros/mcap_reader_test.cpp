@@ -14,7 +14,7 @@
 #include "hmap/ros/mcap_reader.hpp"
 
 namespace hmap {
-namespace {
+namespace mcap_reader_test {
 
 using Bytes = std::vector<std::uint8_t>;
 namespace mcap = ros::mcap;
@@ -264,5 +264,5 @@ TEST(McapReaderTest, SeededDamageNeverCrashes) {
   }
 }
 
-}  // namespace
+}  // namespace mcap_reader_test
 }  // namespace hmap

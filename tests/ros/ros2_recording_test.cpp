@@ -29,7 +29,7 @@
 #include "hmap/ros/mcap_reader.hpp"
 
 namespace hmap {
-namespace {
+namespace ros2_recording_test {
 
 namespace fs = std::filesystem;
 constexpr int kScans = 3;
@@ -322,5 +322,5 @@ TEST_F(Ros2RecordingTest, BadInputRefusedInOneLineNamingTheFile) {
   EXPECT_NE(meta.find("bare: is a folder without metadata.yaml"), std::string::npos) << meta;
 }
 
-}  // namespace
+}  // namespace ros2_recording_test
 }  // namespace hmap

@@ -21,7 +21,7 @@
 #include "hmap/slam/hmap_slam.hpp"
 
 namespace hmap::slam {
-namespace {
+namespace deskew_test {
 
 constexpr double kDeg = std::numbers::pi / 180.0;
 
@@ -258,5 +258,5 @@ TEST(Deskew, ScansWithoutTimeAreUnchangedBitForBit) {
   EXPECT_EQ(a.map().stats().hvoxels, b.map().stats().hvoxels);
 }
 
-}  // namespace
+}  // namespace deskew_test
 }  // namespace hmap::slam

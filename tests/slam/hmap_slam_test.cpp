@@ -13,7 +13,7 @@
 #include "hmap/sim/sensors.hpp"
 
 namespace hmap::slam {
-namespace {
+namespace hmap_slam_test {
 
 constexpr double kDeg = std::numbers::pi / 180.0;
 
@@ -116,7 +116,9 @@ TEST(HmapSlam, WallRefinementPlacesScansWithinACellSmallerMatch) {
     EXPECT_NEAR(est.x, truth.x, 0.01) << k;
     EXPECT_NEAR(est.y, truth.y, 0.01) << k;
     EXPECT_NEAR(est.yaw, truth.yaw, 0.05 * kDeg) << k;
-    if (k > 0) EXPECT_GE(step.walls.pairs, 100U) << k;
+    if (k > 0) {
+      EXPECT_GE(step.walls.pairs, 100U) << k;
+    }
   }
 }
 
@@ -202,5 +204,5 @@ TEST(HmapSlam, ContinuingRefusesAnEmptyMapABadWindowAndAScanOffTheMap) {
   EXPECT_EQ(lost.scans(), 0U);
 }
 
-}  // namespace
+}  // namespace hmap_slam_test
 }  // namespace hmap::slam

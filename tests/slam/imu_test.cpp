@@ -20,7 +20,7 @@
 #include "hmap/slam/hmap_slam.hpp"
 
 namespace hmap::slam {
-namespace {
+namespace imu_test {
 
 constexpr double kDeg = std::numbers::pi / 180.0;
 
@@ -225,5 +225,5 @@ TEST(Imu, SlamTiltWithTheImuWhereTheScansHaveNoFloor) {
               without.rms_tilt_error / kDeg);
 }
 
-}  // namespace
+}  // namespace imu_test
 }  // namespace hmap::slam

@@ -16,7 +16,7 @@
 #include "common/same_map.hpp"
 
 namespace hmap::slam {
-namespace {
+namespace loop_closure_test {
 
 Params loop_params() {
   Params p = outdoor_preset();
@@ -195,5 +195,5 @@ TEST(LoopClosure, BadParametersAreRefusedNamingThem) {
   EXPECT_NO_THROW(LoopCloser{small});
 }
 
-}  // namespace
+}  // namespace loop_closure_test
 }  // namespace hmap::slam

@@ -13,7 +13,7 @@
 #include "hmap/sim/sensors.hpp"
 
 namespace hmap::slam {
-namespace {
+namespace map_align_test {
 
 sim::Scene yard() {
   using sim::Box;
@@ -144,5 +144,5 @@ TEST(MapAlign, FindsAMapFarFromItsOriginOverAllHeadings) {
   EXPECT_NEAR(std::remainder(r.shift.yaw - want_yaw, 2.0 * std::numbers::pi), 0.0, 0.3 * std::numbers::pi / 180.0);
 }
 
-}  // namespace
+}  // namespace map_align_test
 }  // namespace hmap::slam

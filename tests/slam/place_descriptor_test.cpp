@@ -12,7 +12,7 @@
 #include "hmap/sim/sensors.hpp"
 
 namespace hmap::slam {
-namespace {
+namespace place_descriptor_test {
 
 /// A yard with nothing symmetric about it.
 sim::Scene yard() {
@@ -101,5 +101,5 @@ TEST(PlaceDescriptor, EmptyMapsAndBadOptions) {
   EXPECT_THROW((void)compare_places(d, other), Error);
 }
 
-}  // namespace
+}  // namespace place_descriptor_test
 }  // namespace hmap::slam

@@ -11,7 +11,7 @@
 #include "hmap/maps/scan_hvoxels.hpp"
 
 namespace hmap::slam {
-namespace {
+namespace wall_refiner_test {
 
 constexpr double kDeg = std::numbers::pi / 180.0;
 
@@ -269,5 +269,5 @@ TEST(WallRefiner, RefusesInvalidParameters) {
   EXPECT_THROW(WallRefiner{p}, Error);
 }
 
-}  // namespace
+}  // namespace wall_refiner_test
 }  // namespace hmap::slam

@@ -14,7 +14,7 @@ namespace hmap {
 namespace {
 
 constexpr double kRadToDeg = 180.0 / std::numbers::pi;
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kUndefined = std::numeric_limits<double>::quiet_NaN();
 
 void check_inputs(const PoseList& truth, const PoseList& estimate) {
   if (truth.size() != estimate.size()) {
@@ -203,13 +203,13 @@ TrajectoryMetrics evaluate_trajectory(const PoseList& truth, const PoseList& est
     rot_sum += per_rot;
     m.rpe_segments += per.segments;
     const auto count = static_cast<double>(per.segments);
-    per.trans_pct = per.segments > 0 ? 100.0 * per_trans / count : kNaN;
-    per.rot_deg_per_m = per.segments > 0 ? kRadToDeg * per_rot / count : kNaN;
+    per.trans_pct = per.segments > 0 ? 100.0 * per_trans / count : kUndefined;
+    per.rot_deg_per_m = per.segments > 0 ? kRadToDeg * per_rot / count : kUndefined;
     m.per_length.push_back(per);
   }
   const auto segments = static_cast<double>(m.rpe_segments);
-  m.rpe_trans_pct = m.rpe_segments > 0 ? 100.0 * trans_sum / segments : kNaN;
-  m.rpe_rot_deg_per_m = m.rpe_segments > 0 ? kRadToDeg * rot_sum / segments : kNaN;
+  m.rpe_trans_pct = m.rpe_segments > 0 ? 100.0 * trans_sum / segments : kUndefined;
+  m.rpe_rot_deg_per_m = m.rpe_segments > 0 ? kRadToDeg * rot_sum / segments : kUndefined;
   return m;
 }
 

@@ -81,7 +81,7 @@ void draw_scale(RgbImage& img, double m_per_px) {
   draw_legend_and_scale(img, viewport, {});
 }
 
-void draw_line(RgbImage& img, double x0, double y0, double x1, double y1, std::uint8_t r, std::uint8_t g, std::uint8_t b) {
+void draw_segment(RgbImage& img, double x0, double y0, double x1, double y1, std::uint8_t r, std::uint8_t g, std::uint8_t b) {
   const int n = static_cast<int>(std::ceil(std::max(std::abs(x1 - x0), std::abs(y1 - y0)))) + 1;
   for (int k = 0; k <= n; ++k) {
     const double t = static_cast<double>(k) / n;
@@ -219,11 +219,11 @@ RgbImage render_pvox_gradient(const pvox::VoxelMap& map, const PvoxView& view, d
       const double len = std::max(a.norm(), 3.0);
       const Eigen::Vector2d dir = a / a.norm() * len;
       const double x1 = x + dir.x(), y1 = y + dir.y();
-      draw_line(img, x, y, x1, y1, 40, 140, 255);
+      draw_segment(img, x, y, x1, y1, 40, 140, 255);
       const Eigen::Vector2d back = -dir / len * 4.0;
       const Eigen::Vector2d side(-back.y(), back.x());
-      draw_line(img, x1, y1, x1 + back.x() + 0.6 * side.x(), y1 + back.y() + 0.6 * side.y(), 40, 140, 255);
-      draw_line(img, x1, y1, x1 + back.x() - 0.6 * side.x(), y1 + back.y() - 0.6 * side.y(), 40, 140, 255);
+      draw_segment(img, x1, y1, x1 + back.x() + 0.6 * side.x(), y1 + back.y() + 0.6 * side.y(), 40, 140, 255);
+      draw_segment(img, x1, y1, x1 + back.x() - 0.6 * side.x(), y1 + back.y() - 0.6 * side.y(), 40, 140, 255);
     }
   }
   draw_scale(img, m_per_px);

@@ -19,18 +19,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// Record opcodes (spec: "Records").
-constexpr std::uint8_t kHeader = 0x01;
-constexpr std::uint8_t kFooter = 0x02;
-constexpr std::uint8_t kSchema = 0x03;
-constexpr std::uint8_t kChannel = 0x04;
-constexpr std::uint8_t kMessage = 0x05;
-constexpr std::uint8_t kChunk = 0x06;
-constexpr std::uint8_t kMessageIndex = 0x07;
-constexpr std::uint8_t kChunkIndex = 0x08;
-constexpr std::uint8_t kStatistics = 0x0B;
-constexpr std::uint8_t kDataEnd = 0x0F;
-
 constexpr std::uint64_t kRecordPrefix = 9;        // opcode + u64 length
 constexpr std::uint64_t kFooterContent = 20;      // summary_start, summary_offset_start, summary_crc
 constexpr std::uint64_t kMessageFixed = 22;       // channel, sequence, log time, publish time

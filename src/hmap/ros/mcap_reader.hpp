@@ -32,6 +32,19 @@ class ByteSource {
 
 inline constexpr std::uint8_t kMagic[8] = {0x89, 'M', 'C', 'A', 'P', 0x30, '\r', '\n'};
 
+// Record opcodes (spec: "Records"), shared by the reader and the writer.
+inline constexpr std::uint8_t kHeader = 0x01;
+inline constexpr std::uint8_t kFooter = 0x02;
+inline constexpr std::uint8_t kSchema = 0x03;
+inline constexpr std::uint8_t kChannel = 0x04;
+inline constexpr std::uint8_t kMessage = 0x05;
+inline constexpr std::uint8_t kChunk = 0x06;
+inline constexpr std::uint8_t kMessageIndex = 0x07;
+inline constexpr std::uint8_t kChunkIndex = 0x08;
+inline constexpr std::uint8_t kStatistics = 0x0B;
+inline constexpr std::uint8_t kSummaryOffset = 0x0E;
+inline constexpr std::uint8_t kDataEnd = 0x0F;
+
 struct Schema {
   std::uint16_t id = 0;
   std::string name;      ///< e.g. sensor_msgs/msg/PointCloud2

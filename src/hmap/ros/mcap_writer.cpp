@@ -13,19 +13,6 @@ namespace hmap::ros::mcap {
 
 namespace {
 
-// Record opcodes (spec: "Records").
-constexpr std::uint8_t kHeader = 0x01;
-constexpr std::uint8_t kFooter = 0x02;
-constexpr std::uint8_t kSchema = 0x03;
-constexpr std::uint8_t kChannel = 0x04;
-constexpr std::uint8_t kMessage = 0x05;
-constexpr std::uint8_t kChunk = 0x06;
-constexpr std::uint8_t kMessageIndex = 0x07;
-constexpr std::uint8_t kChunkIndex = 0x08;
-constexpr std::uint8_t kStatistics = 0x0B;
-constexpr std::uint8_t kSummaryOffset = 0x0E;
-constexpr std::uint8_t kDataEnd = 0x0F;
-
 /// One record's content, little endian, as the spec lays out its fields.
 class Record {
  public:

@@ -10,8 +10,6 @@
 namespace hmap::sim {
 namespace {
 
-constexpr double kDeg = std::numbers::pi / 180.0;
-
 Parts box_part(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, SurfaceKind kind) {
   return {{Box{0.5 * (lo + hi), 0.5 * (hi - lo), 0.0}, kind}};
 }
@@ -51,12 +49,12 @@ Scene make_office_scene() {
   add_room_walls(b, {0.0, 0.0}, {10.0, 8.0}, 0.0, kHeight, kWall);
   b.add("table_1", make_table(), {{3.0, 2.0, 0.0}, 0.0});
   b.add("table_2", make_table(), {{3.0, 5.5, 0.0}, 0.0});
-  b.add("table_3", make_table(), {{7.0, 4.0, 0.0}, 90.0 * kDeg});
-  b.add("chair_1", make_chair(), {{3.0, 2.85, 0.0}, -90.0 * kDeg});
-  b.add("chair_2", make_chair(), {{3.0, 4.65, 0.0}, 90.0 * kDeg});
-  b.add("chair_3", make_chair(), {{7.85, 4.0, 0.0}, 180.0 * kDeg});
+  b.add("table_3", make_table(), {{7.0, 4.0, 0.0}, 90.0 * kRadiansPerDegree});
+  b.add("chair_1", make_chair(), {{3.0, 2.85, 0.0}, -90.0 * kRadiansPerDegree});
+  b.add("chair_2", make_chair(), {{3.0, 4.65, 0.0}, 90.0 * kRadiansPerDegree});
+  b.add("chair_3", make_chair(), {{7.85, 4.0, 0.0}, 180.0 * kRadiansPerDegree});
   b.add("cabinet", make_cabinet(), {{9.7, 7.0, 0.0}, 0.0});
-  b.add("person", make_person(1.75), {{5.5, 7.4, 0.0}, -90.0 * kDeg});
+  b.add("person", make_person(1.75), {{5.5, 7.4, 0.0}, -90.0 * kRadiansPerDegree});
   // The room's inside, a little beyond its faces: the truth holds no outer wall faces.
   b.set_bounds(Eigen::AlignedBox3d(Eigen::Vector3d(-0.05, -0.05, -0.05), Eigen::Vector3d(10.05, 8.05, 2.65)));
   return b.build();
@@ -87,8 +85,8 @@ Scene make_parking_scene() {
     }
   }
   for (const double x : {-12.0, -20.0, -28.0}) {
-    b.add("garage_car", make_car(), {{x, 9.0, kFloor}, 90.0 * kDeg});
-    b.add("garage_car", make_car(), {{x + 1.0, -9.0, kFloor}, -90.0 * kDeg});
+    b.add("garage_car", make_car(), {{x, 9.0, kFloor}, 90.0 * kRadiansPerDegree});
+    b.add("garage_car", make_car(), {{x + 1.0, -9.0, kFloor}, -90.0 * kRadiansPerDegree});
   }
   b.add("garage_person", make_person(1.7), {{-36.0, 3.0, kFloor}, 0.0});
 

@@ -4,6 +4,7 @@
 
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <numbers>
 #include <optional>
 #include <random>
 #include <string>
@@ -14,6 +15,9 @@
 #include "hmap/sim/primitives.hpp"
 
 namespace hmap::sim {
+
+/// Degrees to radians: the scene files, the builtin scenes and the sensors give angles in degrees.
+inline constexpr double kRadiansPerDegree = std::numbers::pi / 180.0;
 
 /// What a solid stands for; carried into every hit so that tests and experiments can count hits
 /// on the ground, on cars, on tree crowns.

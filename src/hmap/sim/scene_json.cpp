@@ -13,8 +13,6 @@ namespace hmap::sim {
 namespace {
 
 using nlohmann::json;
-constexpr double kDeg = std::numbers::pi / 180.0;
-
 /// A JSON object with the path that leads to it, for messages.
 class Node {
  public:
@@ -191,7 +189,7 @@ MotionPath path_of(const json& value, const std::string& path) {
     k.allow_only({"t", "position", "yaw_deg"});
     const double t = k.number("t");
     if (!keys.empty() && !(t > keys.back().time)) k.fail("t", "times must increase");
-    keys.push_back({t, k.numbers("position", 3, 2), k.number("yaw_deg", 0.0) * kDeg});
+    keys.push_back({t, k.numbers("position", 3, 2), k.number("yaw_deg", 0.0) * kRadiansPerDegree});
   }
   return MotionPath(std::move(keys));
 }
@@ -229,7 +227,7 @@ Scene scene_from_json(const std::string& json_text) {
     const std::string type = o.string("type", "");
     Parts parts = parts_of(o, type);
     const std::string name = o.string("name", type);
-    const double yaw = o.number("yaw_deg", 0.0) * kDeg;
+    const double yaw = o.number("yaw_deg", 0.0) * kRadiansPerDegree;
     double object_yaw = yaw;
     if (turns_about_own_centre(type)) {
       // A primitive turns in place; a composite turns about its origin with the whole object.

@@ -10,8 +10,6 @@
 namespace hmap::sim {
 namespace {
 
-constexpr double kDeg = std::numbers::pi / 180.0;
-
 void check(bool ok, const std::string& message) {
   if (!ok) throw Error(message);
 }
@@ -107,9 +105,9 @@ SpinningLidar::SpinningLidar(SpinningLidarParams params) : params_(std::move(par
   const int columns = checked_count<int>(std::round(360.0 / params_.azimuth_step_deg), 1 << 22, "SpinningLidar: the columns of a sweep");
   directions_sensor_.reserve(static_cast<std::size_t>(columns) * params_.elevations_deg.size());
   for (int c = 0; c < columns; ++c) {
-    const double azimuth = c * params_.azimuth_step_deg * kDeg;
+    const double azimuth = c * params_.azimuth_step_deg * kRadiansPerDegree;
     for (const double elevation_deg : params_.elevations_deg) {
-      const double e = elevation_deg * kDeg;
+      const double e = elevation_deg * kRadiansPerDegree;
       directions_sensor_.emplace_back(std::cos(e) * std::cos(azimuth), std::cos(e) * std::sin(azimuth), std::sin(e));
     }
   }
@@ -160,8 +158,8 @@ DepthCamera::DepthCamera(DepthCameraParams params) : params_(params), rng_(param
   check(params_.sigma_base >= 0.0 && params_.sigma_quadratic >= 0.0, "DepthCamera: noise terms must not be negative");
   check_ranges("DepthCamera", params_.min_range, params_.max_range, params_.dropout_probability);
   // Pinhole in the optical frame (x right, y down, z forward), turned into x forward, y left, z up.
-  const double fx = 0.5 * params_.width / std::tan(0.5 * params_.horizontal_fov_deg * kDeg);
-  const double fy = 0.5 * params_.height / std::tan(0.5 * params_.vertical_fov_deg * kDeg);
+  const double fx = 0.5 * params_.width / std::tan(0.5 * params_.horizontal_fov_deg * kRadiansPerDegree);
+  const double fy = 0.5 * params_.height / std::tan(0.5 * params_.vertical_fov_deg * kRadiansPerDegree);
   const double cx = 0.5 * params_.width;
   const double cy = 0.5 * params_.height;
   rays_sensor_.reserve(static_cast<std::size_t>(params_.width) * static_cast<std::size_t>(params_.height));
@@ -214,12 +212,12 @@ LineScanner::LineScanner(LineScannerParams params) : params_(params), rng_(param
       checked_count<int>(std::floor(params_.field_of_view_deg / params_.angular_step_deg + 1e-9), 1 << 22, "LineScanner: the beams of a line") + 1;
   for (int k = 0; k < params_.sweep_steps; ++k) {
     const double w = params_.sweep_steps == 1 ? 0.0 : static_cast<double>(k) / (params_.sweep_steps - 1);
-    const double sweep = (params_.sweep_min_deg + w * (params_.sweep_max_deg - params_.sweep_min_deg)) * kDeg;
+    const double sweep = (params_.sweep_min_deg + w * (params_.sweep_max_deg - params_.sweep_min_deg)) * kRadiansPerDegree;
     const Eigen::Matrix3d R_base_scanner =
         params_.sweep == SweepMode::kTilt ? Eigen::AngleAxisd(sweep, Eigen::Vector3d::UnitY()).toRotationMatrix()
                                           : Eigen::AngleAxisd(sweep, Eigen::Vector3d::UnitZ()).toRotationMatrix();
     for (int i = 0; i < beams; ++i) {
-      const double a = (-0.5 * params_.field_of_view_deg + i * params_.angular_step_deg) * kDeg;
+      const double a = (-0.5 * params_.field_of_view_deg + i * params_.angular_step_deg) * kRadiansPerDegree;
       const Eigen::Vector3d beam = params_.sweep == SweepMode::kTilt ? Eigen::Vector3d(std::cos(a), std::sin(a), 0.0)
                                                                      : Eigen::Vector3d(std::cos(a), 0.0, std::sin(a));
       directions_base_.push_back(R_base_scanner * beam);

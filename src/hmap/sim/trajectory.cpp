@@ -12,7 +12,7 @@
 namespace hmap::sim {
 namespace {
 
-void check(bool ok, const std::string& message) {
+void check_spec(bool ok, const std::string& message) {
   if (!ok) throw Error(message);
 }
 
@@ -43,8 +43,8 @@ std::vector<double> frame_times(double duration, double frame_rate) {
 // ---------------------------------------------------------------------------------------------
 
 Trajectory diff_drive_path(std::span<const Eigen::Vector2d> waypoints, const DiffDriveParams& params) {
-  check(waypoints.size() >= 2, "diff_drive_path: needs at least two waypoints");
-  check(params.speed > 0.0 && params.turn_rate > 0.0 && params.frame_rate > 0.0,
+  check_spec(waypoints.size() >= 2, "diff_drive_path: needs at least two waypoints");
+  check_spec(params.speed > 0.0 && params.turn_rate > 0.0 && params.frame_rate > 0.0,
         "diff_drive_path: speed, turn_rate and frame_rate must be positive");
   struct Key {
     double t;
@@ -140,13 +140,13 @@ std::vector<Eigen::Vector3d> rounded_polyline(std::span<const Eigen::Vector3d> w
 }  // namespace
 
 Trajectory car_path(std::span<const Eigen::Vector3d> waypoints_ground, const CarPathParams& params) {
-  check(waypoints_ground.size() >= 2, "car_path: needs at least two waypoints");
-  check(params.cruise_speed > 0.0 && params.acceleration > 0.0 && params.lateral_acceleration > 0.0 &&
+  check_spec(waypoints_ground.size() >= 2, "car_path: needs at least two waypoints");
+  check_spec(params.cruise_speed > 0.0 && params.acceleration > 0.0 && params.lateral_acceleration > 0.0 &&
             params.turn_radius > 0.0 && params.frame_rate > 0.0,
         "car_path: speeds, accelerations, turn_radius and frame_rate must be positive");
   constexpr double kStep = 0.05;  // [m] path sampling
   const std::vector<Eigen::Vector3d> p = rounded_polyline(waypoints_ground, params.turn_radius, kStep);
-  check(p.size() >= 2, "car_path: the waypoints do not make a path of positive length");
+  check_spec(p.size() >= 2, "car_path: the waypoints do not make a path of positive length");
   const std::size_t n = p.size();
   std::vector<double> ds(n, 0.0);      // ds[i]: length from p[i-1] to p[i]
   std::vector<double> heading(n - 1);  // of segment i -> i+1
@@ -185,7 +185,7 @@ Trajectory car_path(std::span<const Eigen::Vector3d> waypoints_ground, const Car
 // ---------------------------------------------------------------------------------------------
 
 PoseList noisy_odometry(const PoseList& truth, const OdometryNoiseParams& params) {
-  check(params.translation_sigma >= 0.0 && params.translation_sigma_per_metre >= 0.0 && params.rotation_sigma >= 0.0 &&
+  check_spec(params.translation_sigma >= 0.0 && params.translation_sigma_per_metre >= 0.0 && params.rotation_sigma >= 0.0 &&
             params.rotation_sigma_per_radian >= 0.0,
         "noisy_odometry: noise terms must not be negative");
   PoseList odometry;
@@ -219,8 +219,8 @@ PoseList noisy_odometry(const PoseList& truth, const OdometryNoiseParams& params
 // ---------------------------------------------------------------------------------------------
 
 StopAndGo stop_and_go(const PoseList& stops, const StopAndGoParams& params) {
-  check(!stops.empty(), "stop_and_go: needs at least one stop");
-  check(params.stop_duration >= 0.0 && params.speed > 0.0 && params.turn_rate > 0.0 && params.frame_rate > 0.0,
+  check_spec(!stops.empty(), "stop_and_go: needs at least one stop");
+  check_spec(params.stop_duration >= 0.0 && params.speed > 0.0 && params.turn_rate > 0.0 && params.frame_rate > 0.0,
         "stop_and_go: stop_duration must not be negative; speed, turn_rate and frame_rate must be positive");
   // Phase k = 2i is resting at stop i, phase 2i + 1 moving from stop i to i + 1.
   std::vector<double> phase_end;
@@ -259,12 +259,12 @@ StopAndGo stop_and_go(const PoseList& stops, const StopAndGoParams& params) {
 Pose pose_at(const Trajectory& trajectory, double t) {
   const auto& T = trajectory.T_world_sensor;
   const auto& times = trajectory.times;
-  check(!T.empty() && T.size() == times.size(), "pose_at: the trajectory is empty or its times do not match its poses");
+  check_spec(!T.empty() && T.size() == times.size(), "pose_at: the trajectory is empty or its times do not match its poses");
   if (T.size() == 1 || !(t > times.front())) return T.front();
   if (t >= times.back()) return T.back();
   const std::size_t k = static_cast<std::size_t>(std::upper_bound(times.begin(), times.end(), t) - times.begin()) - 1;
   const double dt = times[k + 1] - times[k];
-  check(dt > 0.0, "pose_at: the trajectory's times must increase");
+  check_spec(dt > 0.0, "pose_at: the trajectory's times must increase");
   const double u = (t - times[k]) / dt;
   // Catmull-Rom: the tangent at a frame is the velocity by central differences (one-sided at the
   // ends), times the segment's duration (Hermite's tangents are per unit of u).
