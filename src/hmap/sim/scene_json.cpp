@@ -13,6 +13,7 @@ namespace hmap::sim {
 namespace {
 
 using nlohmann::json;
+
 /// A JSON object with the path that leads to it, for messages.
 class Node {
  public:
