@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "hmap/io/poses.hpp"
+#include "hmap/io/read_support.hpp"
 #include "io/io_test_util.hpp"
 
 namespace hmap {
@@ -60,6 +61,68 @@ TEST_F(KittiTest, ReadsBinScan) {
   EXPECT_EQ(stats.points_read, 3U);
   EXPECT_EQ(stats.non_finite_dropped, 1U);
   EXPECT_TRUE(read_kitti_bin(write("empty.bin", "")).empty());
+}
+
+TEST_F(KittiTest, ReadsScanLongerThanOneReadPiece) {
+  // Three and a bit pieces of read_file_records, non-finite points on both sides of each piece's
+  // end: the cloud is every finite point in file order, as a whole-file reading gives it.
+  const std::size_t per_piece = detail::kChunkBytes / 16;
+  const std::size_t n = 3 * per_piece + 5;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const float inf = std::numeric_limits<float>::infinity();
+  std::string bytes;
+  PointCloud expected;
+  std::size_t dropped = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const float v = static_cast<float>(i);
+    Point3f p(v, -v, 0.5F * v);
+    const bool bad = i == 0 || i % per_piece == 0 || i % per_piece == per_piece - 1 || i + 1 == n;
+    if (bad) p[static_cast<Eigen::Index>(i % 3)] = i % 2 == 0 ? nan : -inf;
+    for (const float c : {p.x(), p.y(), p.z(), 1.0F}) put<float>(bytes, c);
+    if (bad) {
+      ++dropped;
+    } else {
+      expected.push_back(p);
+    }
+  }
+  CloudReadStats stats;
+  const PointCloud cloud = read_kitti_bin(write("long.bin", bytes), &stats);
+  EXPECT_EQ(stats.points_read, n);
+  EXPECT_EQ(stats.non_finite_dropped, dropped);
+  ASSERT_EQ(cloud.size(), expected.size());
+  for (std::size_t i = 0; i < cloud.size(); ++i) ASSERT_EQ(cloud[i], expected[i]) << "point " << i;
+  // A long file cut inside its last record is refused all the same.
+  bytes.resize(bytes.size() - 7);
+  EXPECT_TRUE(contains(input_error_of([&] { (void)read_kitti_bin(write("cut.bin", bytes)); }),
+                       "cut.bin: size " + std::to_string(bytes.size()) + " bytes is not a multiple of 16"));
+}
+
+TEST_F(KittiTest, RecordReaderHandsOverWholeRecordsInOrder) {
+  // 12-byte records (kChunkBytes is not a multiple of 12) and a part record at the end.
+  std::string bytes;
+  for (std::size_t i = 0; i < 100003; ++i) bytes.push_back(static_cast<char>((i * 7 + i / 251) & 0xFF));
+  const auto path = write("records.raw", bytes);
+  std::string seen;
+  std::size_t pieces = 0;
+  std::size_t hint = 0;
+  const std::size_t total = detail::read_file_records(
+      path, 12,
+      [&](std::span<const char> piece) {
+        EXPECT_EQ(piece.size() % 12, 0U);
+        EXPECT_LE(piece.size(), detail::kChunkBytes);
+        seen.append(piece.data(), piece.size());
+        ++pieces;
+      },
+      detail::kMaxInputBytes, &hint);
+  EXPECT_EQ(total, bytes.size());
+  EXPECT_EQ(hint, bytes.size());
+  EXPECT_EQ(seen, bytes.substr(0, bytes.size() - bytes.size() % 12));
+  EXPECT_GE(pieces, 1U);
+  // The limit counts the bytes read, and a folder is refused by its kind.
+  EXPECT_TRUE(contains(input_error_of([&] { (void)detail::read_file_records(path, 12, [](std::span<const char>) {}, 1000); }),
+                       "more than the"));
+  EXPECT_TRUE(contains(input_error_of([&] { (void)detail::read_file_records(dir_, 12, [](std::span<const char>) {}); }),
+                       "a folder, not a regular file"));
 }
 
 TEST_F(KittiTest, RejectsSizeNotMultipleOf16) {

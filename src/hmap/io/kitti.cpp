@@ -104,24 +104,39 @@ std::vector<double> read_kitti_times(const std::filesystem::path& path) {
 }
 
 PointCloud read_kitti_bin(const std::filesystem::path& path, CloudReadStats* stats) {
-  const std::string bytes = detail::read_file_bytes(path);
-  if (bytes.size() % kBytesPerPoint != 0) {
+  CloudReadStats local;
+  PointCloud cloud;
+  std::size_t size = 0;  // the file's, when it is a regular file
+  std::size_t kept = 0;
+  // Record by record as the file streams in: a scan is read in 256 KiB pieces, not into a
+  // buffer of its own size first (1.3 MB per OS0-64 scan, zero-filled, then copied again).
+  const std::size_t bytes = detail::read_file_records(
+      path, kBytesPerPoint,
+      [&](std::span<const char> records) {
+        const std::size_t n = records.size() / kBytesPerPoint;
+        if (cloud.size() < kept + n) cloud.resize(std::max(kept + n, size / kBytesPerPoint));
+        Point3f* out = cloud.data() + kept;
+        std::size_t written = 0;
+        const char* record = records.data();
+        for (std::size_t i = 0; i < n; ++i, record += kBytesPerPoint) {
+          const auto x = detail::load<float>(record, detail::kSwapLittleEndian);
+          const auto y = detail::load<float>(record + 4, detail::kSwapLittleEndian);
+          const auto z = detail::load<float>(record + 8, detail::kSwapLittleEndian);
+          // Written either way, kept only when finite: no branch on the data.
+          out[written] = Point3f(x, y, z);
+          written += std::isfinite(x) && std::isfinite(y) && std::isfinite(z) ? 1 : 0;
+        }
+        local.non_finite_dropped += n - written;
+        kept += written;
+      },
+      detail::kMaxInputBytes, &size);
+  cloud.resize(kept);
+  if (bytes % kBytesPerPoint != 0) {
     throw InputError(path.string(), "",
-                     "size " + std::to_string(bytes.size()) +
+                     "size " + std::to_string(bytes) +
                          " bytes is not a multiple of 16 (float32 x, y, z, intensity); truncated?");
   }
-  const std::size_t points = bytes.size() / kBytesPerPoint;
-  CloudReadStats local;
-  local.points_read = points;
-  PointCloud cloud;
-  cloud.reserve(points);
-  const char* record = bytes.data();
-  for (std::size_t i = 0; i < points; ++i, record += kBytesPerPoint) {
-    detail::append_if_finite(cloud, detail::load<float>(record, detail::kSwapLittleEndian),
-                             detail::load<float>(record + 4, detail::kSwapLittleEndian),
-                             detail::load<float>(record + 8, detail::kSwapLittleEndian),
-                             local.non_finite_dropped);
-  }
+  local.points_read = bytes / kBytesPerPoint;
   if (stats != nullptr) *stats = local;
   return cloud;
 }

@@ -8,6 +8,7 @@
 #include <cerrno>
 #include <charconv>
 #include <cstring>
+#include <memory>
 
 #include "hmap/core/error.hpp"
 
@@ -19,7 +20,10 @@ namespace {
 class FdCloser {
  public:
   explicit FdCloser(int fd) : fd_(fd) {}
-  ~FdCloser() { ::close(fd_); }
+  ~FdCloser() {
+    if (fd_ >= 0) ::close(fd_);
+  }
+  void release() { fd_ = -1; }
   FdCloser(const FdCloser&) = delete;
   FdCloser& operator=(const FdCloser&) = delete;
 
@@ -39,55 +43,116 @@ std::string_view file_kind(unsigned mode) {
   return "not a regular file";
 }
 
-std::string read_file_bytes(const std::filesystem::path& path, std::size_t max_bytes) {
+namespace {
+
+/// An input opened as read_file_bytes and read_file_chunks take it: regular files and standard
+/// input only, within `max_bytes` by its size; a FIFO never blocks in open().
+struct OpenedInput {
+  int fd = -1;
+  bool regular = false;
+  std::size_t size = 0;  // fstat's, for a regular file
+  std::string name;
+};
+
+OpenedInput open_input(const std::filesystem::path& path, std::size_t max_bytes) {
+  OpenedInput in;
   const bool standard_input = path == "-";
-  const std::string name = standard_input ? std::string("standard input") : path.string();
+  in.name = standard_input ? std::string("standard input") : path.string();
   // O_NONBLOCK: opening a FIFO for reading otherwise waits for a writer, forever. It is refused
   // below by its type; regular files ignore the flag.
-  const int fd = standard_input ? ::dup(STDIN_FILENO) : ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK);
-  if (fd < 0) throw InputError(name, "", std::string("cannot open: ") + std::strerror(errno));
-  const FdCloser closer(fd);
-
+  in.fd = standard_input ? ::dup(STDIN_FILENO) : ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK);
+  if (in.fd < 0) throw InputError(in.name, "", std::string("cannot open: ") + std::strerror(errno));
+  FdCloser on_error(in.fd);
   struct stat info {};
-  if (::fstat(fd, &info) != 0) throw InputError(name, "", std::string("cannot open: ") + std::strerror(errno));
-  const bool regular = S_ISREG(info.st_mode);
+  if (::fstat(in.fd, &info) != 0) throw InputError(in.name, "", std::string("cannot open: ") + std::strerror(errno));
+  in.regular = S_ISREG(info.st_mode);
   // Regular files only: a device (/dev/zero) or a pipe (`<(yes ...)`) has no size to check and
   // may never end. Standard input ("-") may be a pipe, read up to the limit.
-  if (!regular && !(standard_input && !S_ISDIR(info.st_mode))) {
-    throw InputError(name, "", "cannot open: " + std::string(file_kind(info.st_mode)) +
-                                   ", not a regular file");
+  if (!in.regular && !(standard_input && !S_ISDIR(info.st_mode))) {
+    throw InputError(in.name, "", "cannot open: " + std::string(file_kind(info.st_mode)) +
+                                      ", not a regular file");
   }
-  if (regular && static_cast<std::uintmax_t>(info.st_size) > max_bytes) {
-    throw InputError(name, "", std::to_string(info.st_size) + " bytes, more than the " + std::to_string(max_bytes >> 20) +
-                                   " MiB an input may hold");
+  if (in.regular && static_cast<std::uintmax_t>(info.st_size) > max_bytes) {
+    throw InputError(in.name, "", std::to_string(info.st_size) + " bytes, more than the " +
+                                      std::to_string(max_bytes >> 20) + " MiB an input may hold");
   }
+  in.size = in.regular ? static_cast<std::size_t>(info.st_size) : 0;
   if (standard_input) {
-    const int flags = ::fcntl(fd, F_GETFL);
-    if (flags >= 0) ::fcntl(fd, F_SETFL, flags & ~O_NONBLOCK);
+    const int flags = ::fcntl(in.fd, F_GETFL);
+    if (flags >= 0) ::fcntl(in.fd, F_SETFL, flags & ~O_NONBLOCK);
   }
-  // A regular file is read in one go (its real size, not a claim); standard input grows the
-  // buffer as data arrives, up to the limit.
-  std::string bytes;
-  bytes.resize(regular ? static_cast<std::size_t>(info.st_size) : std::size_t{1} << 16);
+  on_error.release();
+  return in;
+}
+
+/// read() until `count` bytes or the end; the bytes read. Throws InputError naming the input.
+std::size_t read_some(const OpenedInput& in, char* into, std::size_t count) {
   std::size_t filled = 0;
-  for (;;) {
-    if (filled == bytes.size()) {
-      if (regular) break;
-      if (bytes.size() > max_bytes) {
-        throw InputError(name, "", "more than the " + std::to_string(max_bytes >> 20) + " MiB an input may hold");
-      }
-      bytes.resize(std::min(bytes.size() * 2, max_bytes + 1));
-    }
-    const ssize_t n = ::read(fd, bytes.data() + filled, bytes.size() - filled);
+  while (filled < count) {
+    const ssize_t n = ::read(in.fd, into + filled, count - filled);
     if (n < 0) {
       if (errno == EINTR) continue;
-      throw InputError(name, "", std::string("cannot read: ") + std::strerror(errno));
+      throw InputError(in.name, "", std::string("cannot read: ") + std::strerror(errno));
     }
     if (n == 0) break;
     filled += static_cast<std::size_t>(n);
   }
+  return filled;
+}
+
+}  // namespace
+
+std::string read_file_bytes(const std::filesystem::path& path, std::size_t max_bytes) {
+  const OpenedInput in = open_input(path, max_bytes);
+  const FdCloser closer(in.fd);
+  // A regular file is read in one go (its real size, not a claim); standard input grows the
+  // buffer as data arrives, up to the limit.
+  std::string bytes;
+  bytes.resize(in.regular ? in.size : std::size_t{1} << 16);
+  std::size_t filled = 0;
+  for (;;) {
+    if (filled == bytes.size()) {
+      if (in.regular) break;
+      if (bytes.size() > max_bytes) {
+        throw InputError(in.name, "", "more than the " + std::to_string(max_bytes >> 20) + " MiB an input may hold");
+      }
+      bytes.resize(std::min(bytes.size() * 2, max_bytes + 1));
+    }
+    const std::size_t n = read_some(in, bytes.data() + filled, bytes.size() - filled);
+    if (n == 0) break;
+    filled += n;
+  }
   bytes.resize(filled);  // the file may have shrunk between fstat and read
   return bytes;
+}
+
+std::size_t read_file_records(const std::filesystem::path& path, std::size_t record_bytes,
+                              const std::function<void(std::span<const char>)>& consume, std::size_t max_bytes,
+                              std::size_t* size_hint) {
+  if (record_bytes == 0 || record_bytes > kChunkBytes) throw Error("read_file_records: record size out of range");
+  const OpenedInput in = open_input(path, max_bytes);
+  const FdCloser closer(in.fd);
+  if (size_hint != nullptr) *size_hint = in.size;
+  // A buffer of whole records, refilled: the file's bytes pass through the cache once, and no
+  // buffer the size of the file is allocated (and zero-filled) per file.
+  const std::size_t capacity = kChunkBytes - kChunkBytes % record_bytes;
+  const std::unique_ptr<char[]> buffer(new char[capacity]);
+  std::size_t total = 0;
+  std::size_t held = 0;  // bytes of an incomplete record carried over
+  for (;;) {
+    const std::size_t n = read_some(in, buffer.get() + held, capacity - held);
+    total += n;
+    if (total > max_bytes) {
+      throw InputError(in.name, "", "more than the " + std::to_string(max_bytes >> 20) + " MiB an input may hold");
+    }
+    held += n;
+    const std::size_t whole = held - held % record_bytes;
+    if (whole > 0) consume({buffer.get(), whole});
+    std::memmove(buffer.get(), buffer.get() + whole, held - whole);
+    held -= whole;
+    if (n == 0) break;
+  }
+  return total;
 }
 
 bool parse_double(std::string_view token, double& value) {

@@ -7,6 +7,8 @@
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
+#include <functional>
+#include <span>
 #include <string>
 #include <string_view>
 #include <type_traits>
@@ -27,6 +29,19 @@ inline constexpr std::size_t kMaxInputBytes = std::size_t{4} << 30;
 /// refused, and a FIFO never blocks in open(). Throws InputError naming the file when it cannot be
 /// opened or read, is not a regular file, or holds more than `max_bytes`.
 [[nodiscard]] std::string read_file_bytes(const std::filesystem::path& path, std::size_t max_bytes = kMaxInputBytes);
+
+/// Bytes read_file_records hands over at most at a time.
+inline constexpr std::size_t kChunkBytes = std::size_t{256} << 10;
+
+/// The file (or standard input, "-") in pieces of whole `record_bytes` records, at most
+/// kChunkBytes each, handed to `consume` in order, without holding the whole file: for formats
+/// that are a run of fixed-size records (KITTI's .bin). The same inputs are refused as by
+/// read_file_bytes. Returns the bytes read: when that is not a multiple of `record_bytes`, the
+/// trailing part record was not handed over. `size_hint`, if given, receives a regular file's
+/// size (0 for standard input) before anything is consumed.
+std::size_t read_file_records(const std::filesystem::path& path, std::size_t record_bytes,
+                              const std::function<void(std::span<const char>)>& consume,
+                              std::size_t max_bytes = kMaxInputBytes, std::size_t* size_hint = nullptr);
 
 /// Parses the whole token as a decimal number ("1.5", "-2e3", "+4", "nan", "inf").
 /// Returns false for anything else, including an empty token or trailing characters.
