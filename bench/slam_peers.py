@@ -160,7 +160,16 @@ def main():
             md, end = motion_difference(ref_poses, read_kitti_poses(path))
             print(f"| {name} | {system} | {e['ate_rmse_m']:.3f} | {e['ate_rmse_aligned_m']:.3f} | "
                   f"{e['rpe_frame_trans_rmse_m']:.4f} | {md:.4f} | {end:.3f} | {wall:.1f} | {cpu:.1f} |")
-        print(f"(reference for {name}: {'poses.txt' if os.path.exists(gt) else 'Open3D ICP'}; every trajectory from its first pose)")
+        # The same trajectories as a picture: hmap's and each peer's over the reference, seen from above.
+        picture = os.path.join(work, "trajectories.png")
+        command = [args.hmap, "eval", "traj", "--gt", ref, "--est", runs["hmap slam (defaults)"][0], "--plot", picture]
+        for system, (path, _, _) in runs.items():
+            is_reference = not os.path.exists(gt) and system == "Open3D point-to-plane ICP"  # drawn as the truth
+            if system != "hmap slam (defaults)" and not is_reference:
+                command += ["--plot-path", f"{path}={system}"]
+        subprocess.run(command, check=True, capture_output=True)
+        print(f"(reference for {name}: {'poses.txt' if os.path.exists(gt) else 'Open3D ICP'}; every trajectory from its first pose; "
+              f"drawn in {picture})")
 
 
 if __name__ == "__main__":

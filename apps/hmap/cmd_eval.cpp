@@ -4,7 +4,10 @@
 
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
+#include <string>
+#include <vector>
 
 #include "cli_common.hpp"
 #include "hmap/core/error.hpp"
@@ -12,7 +15,9 @@
 #include "hmap/eval/trajectory_metrics.hpp"
 #include "hmap/io/hmap_file.hpp"
 #include "hmap/io/ply.hpp"
+#include "hmap/io/png.hpp"
 #include "hmap/io/poses.hpp"
+#include "hmap/render/render.hpp"
 
 namespace hmap::cli {
 
@@ -79,9 +84,43 @@ struct EvalTrajOptions {
   std::string gt;
   std::string est;
   bool json = false;
+  std::string plot;                     ///< a PNG of the paths, when given
+  std::vector<std::string> plot_paths;  ///< more trajectories for the picture, FILE or FILE=LABEL
 };
 
+/// `poses` re-expressed from their first pose (T0⁻¹·Tk): trajectories from different frames start
+/// together, as the ATE "from the first pose" compares them.
+PoseList from_first_pose(PoseList poses) {
+  if (poses.empty()) return poses;
+  const Pose first_inverse = poses.front().inverse();
+  for (Pose& T : poses) T = first_inverse * T;
+  return poses;
+}
+
+/// The picture of --plot: the truth, the estimate and each --plot-path, from their first poses.
+void plot_trajectories(const EvalTrajOptions& o, const PoseList& gt, const PoseList& est) {
+  std::vector<PoseList> extra;
+  std::vector<std::string> labels;
+  for (const std::string& spec : o.plot_paths) {
+    const auto eq = spec.find('=');
+    const std::string file = eq == std::string::npos ? spec : spec.substr(0, eq);
+    const std::string label = eq == std::string::npos ? std::filesystem::path(file).stem().string() : spec.substr(eq + 1);
+    if (file.empty() || label.empty()) {
+      throw Error("--plot-path '" + spec + "': expected FILE or FILE=LABEL, both non-empty");
+    }
+    extra.push_back(from_first_pose(read_poses(file)));
+    labels.push_back(label);
+  }
+  const PoseList truth = from_first_pose(gt);
+  const PoseList estimate = from_first_pose(est);
+  std::vector<render::LabelledPath> paths{{&truth, "truth (--gt)"}, {&estimate, "estimate (--est)"}};
+  for (std::size_t k = 0; k < extra.size(); ++k) paths.push_back({&extra[k], labels[k]});
+  const render::TopPicture picture = render::render_paths(paths, 1200);
+  write_png(o.plot, picture.image);
+}
+
 void run_eval_traj(const EvalTrajOptions& o) {
+  if (!o.plot.empty()) check_output_extension(o.plot, {".png"}, "--plot writes a PNG picture");
   const PoseList gt = read_poses(o.gt);
   const PoseList est = read_poses(o.est);
   if (gt.size() != est.size()) {
@@ -89,6 +128,7 @@ void run_eval_traj(const EvalTrajOptions& o) {
                                     std::to_string(gt.size()));
   }
   const TrajectoryMetrics m = evaluate_trajectory(gt, est);
+  if (!o.plot.empty()) plot_trajectories(o, gt, est);
   const bool fraction = m.segment_length_source == SegmentLengthSource::kFractionOfPath;
   if (o.json) {
     nlohmann::json lengths = nlohmann::json::array();
@@ -147,6 +187,11 @@ void add_eval_command(CLI::App& app) {
   traj_cmd->add_option("--gt", traj_opts->gt, "True poses (KITTI or TUM)")->required();
   traj_cmd->add_option("--est", traj_opts->est, "Estimated poses, one per true pose")->required();
   traj_cmd->add_flag("--json", traj_opts->json, "One JSON object instead of text");
+  traj_cmd->add_option("--plot", traj_opts->plot,
+                       "Also draw the trajectories seen from above into this PNG, each from its first pose (legend, scale bar)");
+  traj_cmd->add_option("--plot-path", traj_opts->plot_paths,
+                       "Another trajectory for --plot (KITTI or TUM), FILE or FILE=LABEL; repeatable")
+      ->needs("--plot");
   traj_cmd->callback([traj_opts] { run_eval_traj(*traj_opts); });
 }
 

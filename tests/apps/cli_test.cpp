@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <fstream>
 #include <map>
@@ -198,6 +199,44 @@ TEST_F(CliTest, EvalTrajReportsTheKnownOffset) {
   const CmdResult bad = run("eval traj --gt " + path("gt.txt") + " --est " + path("short.txt"));
   EXPECT_EQ(bad.code, 2);
   EXPECT_NE(bad.out.find("short.txt"), std::string::npos) << bad.out;
+}
+
+TEST_F(CliTest, EvalTrajDrawsTheTrajectoriesWhenAsked) {
+  std::ofstream(path("gt.txt")) << "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 1 0 1 0 0 0 0 1 0\n1 0 0 2 0 1 0 0 0 0 1 0\n";
+  std::ofstream(path("est.txt")) << "1 0 0 0 0 1 0 0.5 0 0 1 0\n1 0 0 1 0 1 0 0.5 0 0 1 0\n1 0 0 2 0 1 0 0.7 0 0 1 0\n";
+  std::ofstream(path("peer.txt")) << "1 0 0 5 0 1 0 5 0 0 1 0\n1 0 0 6 0 1 0 5 0 0 1 0\n";
+  const CmdResult r = run("eval traj --gt " + path("gt.txt") + " --est " + path("est.txt") + " --plot " + path("t.png") +
+                          " --plot-path " + path("peer.txt") + "=peer");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("ATE RMSE"), std::string::npos) << r.out;  // the figures as without --plot
+  // Every path from its first pose: x in [0, 2], y in [0, 0.2], widened by 1 m: 4 m x 2.2 m, 1200
+  // px wide (the PNG's IHDR: width and height, big-endian, at bytes 16 and 20), the legend beside.
+  std::ifstream png(path("t.png"), std::ios::binary);
+  std::array<unsigned char, 24> head{};
+  png.read(reinterpret_cast<char*>(head.data()), head.size());
+  ASSERT_TRUE(png.good());
+  const auto be32 = [&](int at) {
+    return (std::uint32_t{head[at]} << 24) | (std::uint32_t{head[at + 1]} << 16) | (std::uint32_t{head[at + 2]} << 8) | head[at + 3];
+  };
+  EXPECT_GT(be32(16), 1200U);
+  EXPECT_GE(be32(20), 660U);
+  // Bad requests: one line, exit 2, nothing written.
+  const CmdResult not_png = run("eval traj --gt " + path("gt.txt") + " --est " + path("est.txt") + " --plot " + path("t.jpg"));
+  EXPECT_EQ(not_png.code, 2);
+  EXPECT_NE(not_png.out.find("t.jpg: --plot writes a PNG picture; give a name ending in .png"), std::string::npos) << not_png.out;
+  EXPECT_FALSE(std::filesystem::exists(dir_ / "t.jpg"));
+  const CmdResult no_label = run("eval traj --gt " + path("gt.txt") + " --est " + path("est.txt") + " --plot " + path("u.png") +
+                                 " --plot-path " + path("peer.txt") + "=");
+  EXPECT_EQ(no_label.code, 2);
+  EXPECT_NE(no_label.out.find("expected FILE or FILE=LABEL"), std::string::npos) << no_label.out;
+  EXPECT_FALSE(std::filesystem::exists(dir_ / "u.png"));
+  const CmdResult missing = run("eval traj --gt " + path("gt.txt") + " --est " + path("est.txt") + " --plot " + path("v.png") +
+                                " --plot-path " + path("none.txt"));
+  EXPECT_EQ(missing.code, 2);
+  EXPECT_NE(missing.out.find("none.txt"), std::string::npos) << missing.out;
+  const CmdResult without_plot = run("eval traj --gt " + path("gt.txt") + " --est " + path("est.txt") + " --plot-path " + path("peer.txt"));
+  EXPECT_EQ(without_plot.code, 2);  // --plot-path needs --plot
+  EXPECT_NE(without_plot.out.find("--plot-path requires --plot"), std::string::npos) << without_plot.out;
 }
 
 TEST_F(CliTest, DemoWritesMapPicturesAndReport) {

@@ -8,7 +8,9 @@
 #include <algorithm>
 #include <array>
 #include <cstdlib>
+#include <limits>
 
+#include "hmap/core/error.hpp"
 #include "hmap/render/render.hpp"
 #include "hmap/render/text.hpp"
 
@@ -141,6 +143,44 @@ TEST(TopViewLegend, HeightViewPathsAreWhiteThenRedAndTheHeightEndsAreNamed) {
   EXPECT_GE(small.height, legend_panel(tiny, legend, tiny.width).legend_h + 8);
   EXPECT_EQ(pixel(small, tiny.width + 15, 4 + 5 + (line - 3 - 10) / 2 + 5),
             (std::array<std::uint8_t, 3>{legend[0].r, legend[0].g, legend[0].b}));
+}
+
+/// Whether `colour` is within one pixel of (x, y).
+bool near_colour(const RgbImage& img, int x, int y, const std::array<std::uint8_t, 3>& colour) {
+  for (int dy = -1; dy <= 1; ++dy) {
+    for (int dx = -1; dx <= 1; ++dx) {
+      if (pixel(img, x + dx, y + dy) == colour) return true;
+    }
+  }
+  return false;
+}
+
+TEST(TopViewLegend, PathsAloneFillTheirViewportBesideALegend) {
+  // Two paths 10 m long, 4 m apart: widened by a tenth of 10 m (1 m) each side, 12 m x 6 m at
+  // 600 px on the longer side, 0.02 m per pixel.
+  const PoseList a = straight_path(0.0, 10.0, 0.0);
+  const PoseList b = straight_path(0.0, 10.0, 4.0);
+  const TopPicture picture = render_paths({{&a, "first"}, {&b, "second"}}, 600);
+  ASSERT_EQ(picture.viewport.width, 600);
+  ASSERT_EQ(picture.viewport.height, 300);
+  EXPECT_NEAR(picture.viewport.m_per_px, 0.02, 1e-12);
+  EXPECT_GT(picture.image.width, 600);  // the legend and scale panel, to the right of the paths
+  // Path k in path_colour(k), where its poses fall; black where no path runs.
+  EXPECT_TRUE(near_colour(picture.image, 300, 250, path_colour(0, false)));  // (5, 0)
+  EXPECT_TRUE(near_colour(picture.image, 300, 50, path_colour(1, false)));   // (5, 4)
+  EXPECT_EQ(pixel(picture.image, 300, 150), (std::array<std::uint8_t, 3>{0, 0, 0}));
+  // Nothing to draw, a pose that is not finite, an absurd size: one clear error each.
+  EXPECT_THROW((void)render_paths({}, 600), Error);
+  EXPECT_THROW((void)render_paths({{nullptr, "none"}}, 600), Error);
+  PoseList bad = a;
+  bad[3].translation().y() = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW((void)render_paths({{&bad, "bad"}}, 600), Error);
+  EXPECT_THROW((void)render_paths({{&a, "first"}}, 0), Error);
+  // One pose: a square of 2 m around it, still drawn.
+  const PoseList one(1, Pose::Identity());
+  const TopPicture dot = render_paths({{&one, "still"}}, 100);
+  EXPECT_EQ(dot.viewport.width, 100);
+  EXPECT_TRUE(near_colour(dot.image, 50, 50, path_colour(0, false)));
 }
 
 }  // namespace top_view_legend_test

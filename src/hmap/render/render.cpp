@@ -405,8 +405,8 @@ void draw_legend_and_scale(RgbImage& image, const TopViewport& viewport, const s
 }
 
 std::array<std::uint8_t, 3> path_colour(std::size_t k, bool on_occupancy) {
-  static constexpr std::array<std::array<std::uint8_t, 3>, 4> kColours{
-      {{255, 255, 255}, {255, 40, 40}, {255, 0, 255}, {255, 160, 0}}};
+  static constexpr std::array<std::array<std::uint8_t, 3>, 6> kColours{
+      {{255, 255, 255}, {255, 40, 40}, {255, 0, 255}, {255, 160, 0}, {0, 200, 255}, {80, 220, 80}}};
   if (on_occupancy && k == 0) return {0, 90, 255};
   return kColours[std::min<std::size_t>(k, kColours.size() - 1)];
 }
@@ -460,6 +460,38 @@ TopPicture render_top_view(const HMap& map, TopLayer layer, const HeightRange& r
   } else {
     for (const PathLayer& p : layers) draw_path(out.image, out.viewport, *p.poses, p.r, p.g, p.b);
   }
+  return out;
+}
+
+TopPicture render_paths(const std::vector<LabelledPath>& paths, int max_pixels) {
+  check_max_pixels(max_pixels);
+  double x0 = std::numeric_limits<double>::infinity();
+  double y0 = x0;
+  double x1 = -x0;
+  double y1 = -x0;
+  for (const LabelledPath& path : paths) {
+    if (path.poses == nullptr) continue;
+    for (const Pose& T : *path.poses) {
+      const Eigen::Vector3d t = T.translation();
+      if (!t.allFinite()) throw Error("cannot draw the path '" + path.label + "': a pose is not finite");
+      x0 = std::min(x0, t.x());
+      y0 = std::min(y0, t.y());
+      x1 = std::max(x1, t.x());
+      y1 = std::max(y1, t.y());
+    }
+  }
+  if (!(x0 <= x1)) throw Error("there is no pose to draw");
+  const double margin = std::max(1.0, 0.1 * std::max(x1 - x0, y1 - y0));
+  TopPicture out;
+  out.viewport = viewport_over(x0 - margin, y0 - margin, x1 + margin, y1 + margin, 0.0, max_pixels);
+  out.image = RgbImage(out.viewport.width, out.viewport.height, 0);
+  std::vector<PathLayer> layers;
+  for (std::size_t k = 0; k < paths.size(); ++k) {
+    if (paths[k].poses == nullptr) continue;
+    const auto c = path_colour(k, false);
+    layers.push_back({paths[k].poses, c[0], c[1], c[2], paths[k].label});
+  }
+  draw_paths_and_legend(out.image, out.viewport, {}, layers);
   return out;
 }
 

@@ -125,7 +125,7 @@ struct PathLayer {
 
 /// The colour of the k-th path of a top view: white on the height view (the truth, by convention),
 /// blue (0, 90, 255) on the occupancy layer, where white is free space and black occupied; then red,
-/// magenta, orange on both.
+/// magenta, orange, cyan and green on both (green again for any further path).
 [[nodiscard]] std::array<std::uint8_t, 3> path_colour(std::size_t k, bool on_occupancy);
 
 /// The height colouring's two ends as legend entries ("z_low m" blue, "z_high m" red).
@@ -172,5 +172,13 @@ struct TopPicture {
 [[nodiscard]] TopPicture render_top_view(const HMap& map, TopLayer layer, const HeightRange& range, int max_pixels,
                                          const OccupancyGrid* grid, std::span<const GroundPatch> ground,
                                          const std::vector<LabelledPath>& paths, bool legend);
+
+/// Paths alone, seen from above on black (x to the right, y up), each drawn from its poses as
+/// given, path k in path_colour(k) with a dot at its start: the viewport over all of them widened
+/// by a tenth of the larger extent (at least 1 m) on each side, at most `max_pixels` on its longer
+/// side, with the legend (each label) and the scale bar in a panel to the right. For trajectories
+/// without a map (`hmap eval traj --plot`). Throws hmap::Error when no path holds a pose, a pose
+/// is not finite, or max_pixels is out of range.
+[[nodiscard]] TopPicture render_paths(const std::vector<LabelledPath>& paths, int max_pixels);
 
 }  // namespace hmap::render
