@@ -45,7 +45,7 @@ std::string_view file_kind(unsigned mode) {
 
 namespace {
 
-/// An input opened as read_file_bytes and read_file_chunks take it: regular files and standard
+/// An input opened as read_file_bytes and read_file_records take it: regular files and standard
 /// input only, within `max_bytes` by its size; a FIFO never blocks in open().
 struct OpenedInput {
   int fd = -1;

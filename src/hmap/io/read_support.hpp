@@ -1,6 +1,7 @@
 #pragma once
-// Shared by the readers of hmap::io: a whole file in memory, number parsing that allocates
-// nothing, binary scalars of either endianness. Internal: the public API is in the reader headers.
+// Shared by the readers of hmap::io: a whole file in memory or streamed as fixed-size records,
+// number parsing that allocates nothing, binary scalars of either endianness. Internal: the public
+// API is in the reader headers.
 
 #include <bit>
 #include <cmath>
