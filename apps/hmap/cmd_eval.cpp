@@ -88,15 +88,6 @@ struct EvalTrajOptions {
   std::vector<std::string> plot_paths;  ///< more trajectories for the picture, FILE or FILE=LABEL
 };
 
-/// `poses` re-expressed from their first pose (T0⁻¹·Tk): trajectories from different frames start
-/// together, as the ATE "from the first pose" compares them.
-PoseList from_first_pose(PoseList poses) {
-  if (poses.empty()) return poses;
-  const Pose first_inverse = poses.front().inverse();
-  for (Pose& T : poses) T = first_inverse * T;
-  return poses;
-}
-
 /// The picture of --plot: the truth, the estimate and each --plot-path, from their first poses.
 void plot_trajectories(const EvalTrajOptions& o, const PoseList& gt, const PoseList& est) {
   std::vector<PoseList> extra;

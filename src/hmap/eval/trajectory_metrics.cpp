@@ -73,6 +73,13 @@ Pose relative_error(const PoseList& truth, const PoseList& estimate, std::size_t
 
 }  // namespace
 
+PoseList from_first_pose(PoseList poses) {
+  if (poses.empty()) return poses;
+  const Pose first_inverse = poses.front().inverse();
+  for (Pose& T : poses) T = first_inverse * T;
+  return poses;
+}
+
 double rotation_angle(const Eigen::Matrix3d& R) {
   const Eigen::Vector3d axis_sin(R(2, 1) - R(1, 2), R(0, 2) - R(2, 0), R(1, 0) - R(0, 1));
   const double sin_angle = 0.5 * axis_sin.norm();
@@ -142,13 +149,13 @@ TrajectoryMetrics evaluate_trajectory(const PoseList& truth, const PoseList& est
   m.ate_median_aligned_m = ate_aligned.median;
   m.ate_max_aligned_m = ate_aligned.max;
   std::vector<double> errors_origin(n);
-  const Pose truth0_inv = truth[0].inverse();
-  const Pose estimate0_inv = estimate[0].inverse();
+  const PoseList truth_origin = from_first_pose(truth);
+  const PoseList estimate_origin = from_first_pose(estimate);
   for (std::size_t i = 0; i < n; ++i) {
-    errors_origin[i] = ((truth0_inv * truth[i]).translation() - (estimate0_inv * estimate[i]).translation()).norm();
+    errors_origin[i] = (truth_origin[i].translation() - estimate_origin[i].translation()).norm();
   }
   if (n > 0) {
-    const Eigen::Vector3d end = (truth0_inv * truth[n - 1]).translation() - (estimate0_inv * estimate[n - 1]).translation();
+    const Eigen::Vector3d end = truth_origin[n - 1].translation() - estimate_origin[n - 1].translation();
     m.end_error_origin_m = end.norm();
     m.end_error_origin_planar_m = end.head<2>().norm();
   }

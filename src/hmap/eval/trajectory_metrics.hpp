@@ -90,6 +90,10 @@ struct TrajectoryMetrics {
 /// (Umeyama 1991, without scale; Horn's closed form). Same input checks as evaluate_trajectory.
 [[nodiscard]] Pose rigid_alignment(const PoseList& truth, const PoseList& estimate);
 
+/// `poses` re-expressed from their first pose (T0⁻¹·Tk): trajectories in different frames start
+/// together at the identity, as the ATE "from the first pose" compares them. Empty stays empty.
+[[nodiscard]] PoseList from_first_pose(PoseList poses);
+
 /// Rotation angle of a rotation matrix [rad], accurate near 0 and π (atan2 of sine and cosine).
 [[nodiscard]] double rotation_angle(const Eigen::Matrix3d& R);
 
