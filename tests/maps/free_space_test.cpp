@@ -3,7 +3,10 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
+#include <bit>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <random>
 
@@ -33,9 +36,11 @@ TEST(FreeCellTest, UnitesOverlapsAndCountsRays) {
   c.add(2.0F, 3.0F, 1, 0.0F, 0.1F);
   c.add(0.5F, 2.5F, 1, 0.0F, 0.1F);  // bridges both
   ASSERT_EQ(c.n, 1U);
-  EXPECT_FLOAT_EQ(c.intervals[0].z_min, 0.0F);
-  EXPECT_FLOAT_EQ(c.intervals[0].z_max, 3.0F);
-  EXPECT_FLOAT_EQ(c.intervals[0].rays, 3.0F);
+  EXPECT_FLOAT_EQ(c.z_min[0], 0.0F);
+  EXPECT_FLOAT_EQ(c.z_max[0], 3.0F);
+  EXPECT_FLOAT_EQ(c.rays[0], 3.0F);
+  // The freed lane is empty again: nothing can meet it.
+  EXPECT_EQ(c.hit_mask(-1e30F, 1e30F, 0.0F), 1U);
 }
 
 TEST(FreeCellTest, UnitesBandsWithinTheGap) {
@@ -44,8 +49,8 @@ TEST(FreeCellTest, UnitesBandsWithinTheGap) {
   c.add(1.04F, 2.0F, 1, 0.05F, 0.1F);  // 4 cm above: unites
   c.add(2.06F, 3.0F, 1, 0.05F, 0.1F);  // 6 cm above: stays apart
   ASSERT_EQ(c.n, 2U);
-  EXPECT_FLOAT_EQ(c.intervals[0].z_max, 2.0F);
-  EXPECT_FLOAT_EQ(c.intervals[0].rays, 2.0F);
+  EXPECT_FLOAT_EQ(c.z_max[0], 2.0F);
+  EXPECT_FLOAT_EQ(c.rays[0], 2.0F);
 }
 
 TEST(FreeCellTest, FullCellJoinsNearestOnlyWhenClose) {
@@ -54,12 +59,104 @@ TEST(FreeCellTest, FullCellJoinsNearestOnlyWhenClose) {
   c.add(100.0F, 101.0F, 1, 0.0F, 0.2F);  // far from all: dropped
   EXPECT_EQ(c.n, static_cast<std::uint32_t>(FreeCell::kMaxIntervals));
   float rays = 0;
-  for (const auto& f : c.hvoxels()) rays += f.rays;
+  std::array<FreeHVoxel, FreeCell::kMaxIntervals> lanes;
+  for (const auto& f : c.hvoxels(lanes)) rays += f.rays;
   EXPECT_FLOAT_EQ(rays, static_cast<float>(FreeCell::kMaxIntervals));
   c.add(0.6F, 0.65F, 1, 0.0F, 0.2F);  // 0.1 above [0, 0.5]: joins it
   bool joined = false;
-  for (const auto& f : c.hvoxels()) joined |= f.z_min == 0.0F && f.z_max == 0.65F && f.rays == 2.0F;
+  for (const auto& f : c.hvoxels(lanes)) joined |= f.z_min == 0.0F && f.z_max == 0.65F && f.rays == 2.0F;
   EXPECT_TRUE(joined);
+}
+
+// The intervals of a cell, one at a time in a list: the rules FreeCell::add follows lane by lane.
+struct IntervalListTwin {
+  std::vector<FreeHVoxel> iv;
+  void add(float lo, float hi, float r, float unite_gap, float join_gap) {
+    std::size_t hit = iv.size();
+    for (std::size_t k = 0; k < iv.size(); ++k) {
+      if (!(lo <= iv[k].z_max + unite_gap && hi >= iv[k].z_min - unite_gap)) continue;
+      if (hit == iv.size()) {
+        iv[k].z_min = std::min(iv[k].z_min, lo);
+        iv[k].z_max = std::max(iv[k].z_max, hi);
+        iv[k].rays += r;
+        hit = k;
+      } else {  // folded into the first met; the last takes its place
+        iv[hit].z_min = std::min(iv[hit].z_min, iv[k].z_min);
+        iv[hit].z_max = std::max(iv[hit].z_max, iv[k].z_max);
+        iv[hit].rays += iv[k].rays;
+        iv[k] = iv.back();
+        iv.pop_back();
+        --k;
+      }
+    }
+    if (hit != iv.size()) return;
+    if (iv.size() < FreeCell::kMaxIntervals) {
+      iv.push_back({lo, hi, r});
+      return;
+    }
+    std::size_t nearest = 0;
+    float best = std::numeric_limits<float>::infinity();
+    for (std::size_t k = 0; k < iv.size(); ++k) {
+      const float gap = std::max(iv[k].z_min - hi, lo - iv[k].z_max);
+      if (gap < best) {
+        best = gap;
+        nearest = k;
+      }
+    }
+    if (best <= join_gap) {
+      iv[nearest].z_min = std::min(iv[nearest].z_min, lo);
+      iv[nearest].z_max = std::max(iv[nearest].z_max, hi);
+      iv[nearest].rays += r;
+    }
+  }
+};
+
+TEST(FreeCellTest, AgreesLaneForLaneWithAListOfIntervals) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> z(-2.0F, 6.0F);
+  std::uniform_real_distribution<float> len(0.0F, 0.6F);
+  std::uniform_int_distribution<int> rays(1, 3);
+  for (int trial = 0; trial < 400; ++trial) {
+    const float unite_gap = trial % 3 == 0 ? 0.0F : 0.05F;
+    const float join_gap = trial % 2 == 0 ? 0.0F : 0.4F;
+    FreeCell cell;
+    IntervalListTwin twin;
+    const int bands = 1 + trial % 40;
+    for (int b = 0; b < bands; ++b) {
+      // Now and then a band from exactly zero, of either sign: min and max keep the held value on a tie.
+      const float lo = b % 5 == 0 ? (b % 2 == 0 ? 0.0F : -0.0F) : z(rng);
+      const float hi = b % 5 == 0 ? (b % 3 == 0 ? 0.0F : -0.0F) : lo + len(rng);
+      const auto r = static_cast<float>(rays(rng));
+      ASSERT_EQ(cell.hit_mask(lo, hi, unite_gap), cell.hit_mask_scalar(lo, hi, unite_gap));
+      cell.add(lo, hi, r, unite_gap, join_gap);
+      twin.add(lo, hi, r, unite_gap, join_gap);
+      ASSERT_EQ(cell.n, twin.iv.size()) << "trial " << trial << " band " << b;
+      for (std::uint32_t k = 0; k < cell.n; ++k) {
+        // Bit for bit: the same minima, maxima and sums, in the same lanes.
+        EXPECT_EQ(std::bit_cast<std::uint32_t>(cell.z_min[k]), std::bit_cast<std::uint32_t>(twin.iv[k].z_min));
+        EXPECT_EQ(std::bit_cast<std::uint32_t>(cell.z_max[k]), std::bit_cast<std::uint32_t>(twin.iv[k].z_max));
+        EXPECT_EQ(std::bit_cast<std::uint32_t>(cell.rays[k]), std::bit_cast<std::uint32_t>(twin.iv[k].rays));
+      }
+      for (std::uint32_t k = cell.n; k < FreeCell::kMaxIntervals; ++k) {
+        EXPECT_EQ(cell.z_min[k], std::numeric_limits<float>::infinity());
+        EXPECT_EQ(cell.z_max[k], -std::numeric_limits<float>::infinity());
+        EXPECT_EQ(cell.rays[k], 0.0F);
+      }
+    }
+  }
+}
+
+TEST(FreeCellTest, ClearEmptiesEveryLane) {
+  FreeCell c;
+  c.add(0.0F, 1.0F, 1, 0.0F, 0.0F);
+  c.add(2.0F, 3.0F, 1, 0.0F, 0.0F);
+  c.clear();
+  EXPECT_EQ(c.n, 0U);
+  EXPECT_EQ(c.hit_mask(-1e30F, 1e30F, 1.0F), 0U);
+  c.add(5.0F, 6.0F, 2, 0.0F, 0.0F);
+  ASSERT_EQ(c.n, 1U);
+  EXPECT_EQ(c.hvoxel(0).z_min, 5.0F);
+  EXPECT_EQ(c.hvoxel(0).rays, 2.0F);
 }
 
 // Brute-force twin of Alg. 3: sample each ray's 2D segment finely, and per crossed cell record
@@ -132,7 +229,9 @@ TEST(FreeSpaceTest, MatchesDenseSegmentSampling) {
           united.push_back(b);
         }
       }
-      auto free = std::vector<FreeHVoxel>(fc.hvoxels().begin(), fc.hvoxels().end());
+      std::array<FreeHVoxel, FreeCell::kMaxIntervals> lanes;
+      const auto held = fc.hvoxels(lanes);
+      auto free = std::vector<FreeHVoxel>(held.begin(), held.end());
       std::sort(free.begin(), free.end(), [](const auto& a, const auto& b) { return a.z_min < b.z_min; });
       ASSERT_EQ(free.size(), united.size()) << "trial " << trial;
       for (std::size_t k = 0; k < free.size(); ++k) {

@@ -12,51 +12,57 @@
 
 namespace hmap {
 
-void FreeCell::add_slow(float lo, float hi, float rays, float unite_gap, float join_gap) {
+void FreeCell::add_slow(float lo, float hi, float r, float unite_gap, float join_gap) {
   // Unite with every interval it overlaps or comes within unite_gap of (they are kept farther
   // apart than that, so the union cannot reach one that [lo, hi] did not).
   std::uint32_t hit = n;
   for (std::uint32_t k = 0; k < n; ++k) {
-    FreeHVoxel& iv = intervals[k];
-    if (lo <= iv.z_max + unite_gap && hi >= iv.z_min - unite_gap) {
-      if (hit == n && lo >= iv.z_min && hi <= iv.z_max) {  // inside one: it overlaps no other
-        iv.rays += rays;
+    if (lo <= z_max[k] + unite_gap && hi >= z_min[k] - unite_gap) {
+      if (hit == n && lo >= z_min[k] && hi <= z_max[k]) {  // inside one: it overlaps no other
+        rays[k] += r;
         return;
       }
       if (hit == n) {
-        iv.z_min = std::min(iv.z_min, lo);
-        iv.z_max = std::max(iv.z_max, hi);
-        iv.rays += rays;
+        z_min[k] = std::min(z_min[k], lo);
+        z_max[k] = std::max(z_max[k], hi);
+        rays[k] += r;
         hit = k;
-      } else {  // a second overlapped interval: fold it into the first one
-        FreeHVoxel& into = intervals[hit];
-        into.z_min = std::min(into.z_min, iv.z_min);
-        into.z_max = std::max(into.z_max, iv.z_max);
-        into.rays += iv.rays;
-        intervals[k] = intervals[--n];
+      } else {  // a second overlapped interval: fold it into the first one, the last into its lane
+        z_min[hit] = std::min(z_min[hit], z_min[k]);
+        z_max[hit] = std::max(z_max[hit], z_max[k]);
+        rays[hit] += rays[k];
+        --n;
+        z_min[k] = z_min[n];
+        z_max[k] = z_max[n];
+        rays[k] = rays[n];
+        z_min[n] = std::numeric_limits<float>::infinity();
+        z_max[n] = -std::numeric_limits<float>::infinity();
+        rays[n] = 0.0F;
         --k;
       }
     }
   }
   if (hit != n) return;
   if (n < kMaxIntervals) {
-    intervals[n++] = {lo, hi, rays};
+    z_min[n] = lo;
+    z_max[n] = hi;
+    rays[n] = r;
+    ++n;
     return;
   }
   std::uint32_t nearest = 0;
   float best = std::numeric_limits<float>::infinity();
   for (std::uint32_t k = 0; k < n; ++k) {
-    const float gap = std::max(intervals[k].z_min - hi, lo - intervals[k].z_max);
+    const float gap = std::max(z_min[k] - hi, lo - z_max[k]);
     if (gap < best) {
       best = gap;
       nearest = k;
     }
   }
   if (best <= join_gap) {
-    FreeHVoxel& iv = intervals[nearest];
-    iv.z_min = std::min(iv.z_min, lo);
-    iv.z_max = std::max(iv.z_max, hi);
-    iv.rays += rays;
+    z_min[nearest] = std::min(z_min[nearest], lo);
+    z_max[nearest] = std::max(z_max[nearest], hi);
+    rays[nearest] += r;
   }
 }
 
@@ -84,7 +90,7 @@ FreeCell& FreeSpaceTracer::Accumulator::new_cell(std::size_t w, const CellKey& k
   if (used_cells == cells.size()) cells.resize(std::max<std::size_t>(4096, 2 * cells.size()));
   FreeCell& cell = cells[used_cells++];
   cell.key = key;
-  cell.n = 0;  // its intervals are written before they are read
+  cell.clear();
   slot_of_window[w] = static_cast<std::uint32_t>(used_cells);
   used_windows.push_back(w);
   return cell;
@@ -113,7 +119,7 @@ void FreeSpaceTracer::trace(const ScanHVoxels& scan, const std::function<void()>
     for (FreeCell& fc : quadrants_[q].used()) {
       if (fc.key.i != c.i && fc.key.j != c.j) continue;
       FreeCell& into = first.cell_at(scan.window.index(fc.key), fc.key);
-      for (const FreeHVoxel& f : fc.hvoxels()) into.add(f.z_min, f.z_max, f.rays, unite_gap, join_gap);
+      for (std::uint32_t k = 0; k < fc.n; ++k) into.add(fc.z_min[k], fc.z_max[k], fc.rays[k], unite_gap, join_gap);
       fc.n = 0;  // folded
     }
   }

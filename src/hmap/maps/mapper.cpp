@@ -94,7 +94,8 @@ void Mapper::extrude_free_space(ScanStats& stats) {
       // Within one scan a hit outranks a pass-through, as in OctoMap: the scan's own HVoxels in
       // this cell are not carved by its own rays.
       const std::uint32_t own = scan_cell_of_window[scan_.window.index(free_cell.key)];
-      std::span<const FreeHVoxel> free = free_cell.hvoxels();
+      std::array<FreeHVoxel, FreeCell::kMaxIntervals> lanes;
+      std::span<const FreeHVoxel> free = free_cell.hvoxels(lanes);
       if (own != 0) {
         pieces.clear();
         const auto own_hvoxels = scan_.hvoxels_of(scan_.cells[own - 1]);
