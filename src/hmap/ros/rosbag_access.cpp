@@ -51,11 +51,19 @@ struct Message {
   std::size_t size;
 };
 
+/// ROS's input stream over a message's bytes. An empty message is refused here: its buffer may be
+/// a null pointer, and ROS's stream advances the pointer before it checks the length (found by
+/// the rosbag fuzzer: a zero-length PointCloud2 record).
+::ros::serialization::IStream stream_of(const Message& m) {
+  if (m.size == 0 || m.data == nullptr) throw std::runtime_error("a message on topic " + m.topic + " is empty");
+  return {const_cast<std::uint8_t*>(m.data), static_cast<std::uint32_t>(m.size)};
+}
+
 /// Deserializes with ROS's own code when the message's md5sum is T's (as MessageInstance::instantiate).
 template <typename T>
 bool deserialize_as(const Message& m, T& msg) {
   if (m.md5sum != ::ros::message_traits::MD5Sum<T>::value()) return false;
-  ::ros::serialization::IStream in(const_cast<std::uint8_t*>(m.data), static_cast<std::uint32_t>(m.size));
+  ::ros::serialization::IStream in = stream_of(m);
   ::ros::serialization::deserialize(in, msg);
   return true;
 }
@@ -65,7 +73,7 @@ CloudHeader cloud_header(const Message& m) {
   if (m.datatype != "sensor_msgs/PointCloud2") {
     throw std::runtime_error("topic " + m.topic + " holds " + m.datatype + ", not sensor_msgs/PointCloud2");
   }
-  ::ros::serialization::IStream in(const_cast<std::uint8_t*>(m.data), static_cast<std::uint32_t>(m.size));
+  ::ros::serialization::IStream in = stream_of(m);
   std::uint32_t seq = 0;
   ::ros::Time stamp;
   CloudHeader h;
