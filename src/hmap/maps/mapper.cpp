@@ -74,36 +74,64 @@ void Mapper::extrude_free_space(ScanStats& stats) {
   const auto& scan_cell_of_window = hvoxelizer_.cell_of_window();
   const auto& free_cells = tracer_.cells();
   // Each free cell changes only its own column, and no tile is created; the columns of a tile
-  // share its buffer, so the cells are dealt into stripes by tile and the stripes run in parallel.
-  for (auto& stripe : stripes_) stripe.clear();
-  for (const FreeCell* fc : free_cells) {
-    const CellKey t = HMap::tile_of(fc->key);
-    const auto h = static_cast<std::uint32_t>(t.i) * 0x9E3779B1U ^ static_cast<std::uint32_t>(t.j) * 0x85EBCA77U;
-    stripes_[(h >> 16) % stripes_.size()].push_back(fc);
+  // share its buffer, so each tile's cells go to one thread. The cells are grouped by tile (a
+  // stable counting sort over the window's tiles), so that a tile is looked up once for all its
+  // cells and its buffer stays in cache while they are carved; within a tile they keep the
+  // tracer's order, so the edits, and the buffer's growth, are the same whatever the threads.
+  const ScanWindow& window = scan_.window;
+  const CellKey tile_lo = HMap::tile_of({window.center.i - window.half, window.center.j - window.half});
+  const CellKey tile_hi = HMap::tile_of({window.center.i + window.half, window.center.j + window.half});
+  const auto tiles_wide = static_cast<std::size_t>(tile_hi.j - tile_lo.j + 1);
+  const auto tiles_high = static_cast<std::size_t>(tile_hi.i - tile_lo.i + 1);
+  tile_start_.assign(tiles_wide * tiles_high + 1, 0);
+  bucket_of_cell_.resize(free_cells.size());
+  for (std::size_t k = 0; k < free_cells.size(); ++k) {
+    const CellKey t = HMap::tile_of(free_cells[k]->key);
+    const auto bucket = static_cast<std::uint32_t>(static_cast<std::size_t>(t.i - tile_lo.i) * tiles_wide +
+                                                   static_cast<std::size_t>(t.j - tile_lo.j));
+    bucket_of_cell_[k] = bucket;
+    ++tile_start_[bucket + 1];
+  }
+  tiles_used_.clear();
+  for (std::size_t b = 0; b + 1 < tile_start_.size(); ++b) {
+    if (tile_start_[b + 1] != 0) tiles_used_.push_back(static_cast<std::uint32_t>(b));
+    tile_start_[b + 1] += tile_start_[b];
+  }
+  by_tile_.resize(free_cells.size());
+  {
+    // tile_start_[b] as the write cursor of tile b, then restored from the next tile's start.
+    for (std::size_t k = 0; k < free_cells.size(); ++k) by_tile_[tile_start_[bucket_of_cell_[k]]++] = free_cells[k];
+    for (std::size_t b = tile_start_.size() - 1; b > 0; --b) tile_start_[b] = tile_start_[b - 1];
+    tile_start_[0] = 0;
   }
   tbb::enumerable_thread_specific<std::vector<FreeHVoxel>> pieces_of_thread;
   tbb::enumerable_thread_specific<ExtrusionCounts> counts_of_thread;
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, stripes_.size(), 1), [&](const auto& range) {
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, tiles_used_.size(), 16), [&](const auto& range) {
     auto& pieces = pieces_of_thread.local();
     auto& counts = counts_of_thread.local();
-    for (std::size_t s = range.begin(); s != range.end(); ++s) {
-    for (const FreeCell* fc : stripes_[s]) {
-      const FreeCell& free_cell = *fc;
-      std::optional<TileColumn> column = map_.find_column(free_cell.key);
-      if (!column || column->empty()) continue;
-      // Within one scan a hit outranks a pass-through, as in OctoMap: the scan's own HVoxels in
-      // this cell are not carved by its own rays.
-      const std::uint32_t own = scan_cell_of_window[scan_.window.index(free_cell.key)];
-      std::array<FreeHVoxel, FreeCell::kMaxIntervals> lanes;
-      std::span<const FreeHVoxel> free = free_cell.hvoxels(lanes);
-      if (own != 0) {
-        pieces.clear();
-        const auto own_hvoxels = scan_.hvoxels_of(scan_.cells[own - 1]);
-        for (const FreeHVoxel& f : free) subtract(f, own_hvoxels, pieces);
-        free = pieces;
+    for (std::size_t u = range.begin(); u != range.end(); ++u) {
+      const std::uint32_t bucket = tiles_used_[u];
+      const CellKey tile_key{tile_lo.i + static_cast<std::int32_t>(bucket / tiles_wide),
+                             tile_lo.j + static_cast<std::int32_t>(bucket % tiles_wide)};
+      HMap::Tile* tile = map_.find_tile(tile_key);
+      if (tile == nullptr) continue;
+      for (std::uint32_t k = tile_start_[bucket]; k != tile_start_[bucket + 1]; ++k) {
+        const FreeCell& free_cell = *by_tile_[k];
+        TileColumn column(*tile, HMap::local_index(free_cell.key));
+        if (column.empty()) continue;
+        // Within one scan a hit outranks a pass-through, as in OctoMap: the scan's own HVoxels in
+        // this cell are not carved by its own rays.
+        const std::uint32_t own = scan_cell_of_window[window.index(free_cell.key)];
+        std::array<FreeHVoxel, FreeCell::kMaxIntervals> lanes;
+        std::span<const FreeHVoxel> free = free_cell.hvoxels(lanes);
+        if (own != 0) {
+          pieces.clear();
+          const auto own_hvoxels = scan_.hvoxels_of(scan_.cells[own - 1]);
+          for (const FreeHVoxel& f : free) subtract(f, own_hvoxels, pieces);
+          free = pieces;
+        }
+        extrude(column, free, p, counts);
       }
-      extrude(*column, free, p, counts);
-    }
     }
   });
   for (const ExtrusionCounts& c : counts_of_thread) {

@@ -1,7 +1,7 @@
 #pragma once
 // The HMAP mapping pipeline of section III: a scan and its pose in, the map updated.
 
-#include <array>
+#include <cstdint>
 #include <span>
 #include <vector>
 
@@ -50,7 +50,11 @@ class Mapper {
   ScanHVoxelizer hvoxelizer_;
   FreeSpaceTracer tracer_;
   ScanHVoxels scan_;
-  std::array<std::vector<const FreeCell*>, 16> stripes_;  // free cells dealt by tile (extrusion)
+  // The free cells grouped by the tile of the scan window they fall in (extrusion): a counting sort.
+  std::vector<std::uint32_t> tile_start_;      // per window tile: where its cells start in by_tile_
+  std::vector<std::uint32_t> bucket_of_cell_;  // per free cell: its window tile
+  std::vector<const FreeCell*> by_tile_;       // the free cells, tile by tile, in tracer order within one
+  std::vector<std::uint32_t> tiles_used_;      // the window tiles holding free cells
 };
 
 }  // namespace hmap
