@@ -180,5 +180,32 @@ TEST(MapperTest, ColumnsStayValidAndRecoveryCoversHVoxels) {
   }
 }
 
+// The scan's cells are merged tile by tile, but the tiles the map lacks are made in the order the
+// scan first reaches them (what a lookup per cell did): the map's tile order, which its exports
+// and walks follow, does not depend on where the tiles lie in the scan window.
+TEST(MapperTest, NewTilesAreMadeInTheOrderTheScanFirstReachesThem) {
+  Params p = test_params();
+  p.map.free_space = FreeSpaceMode::kNone;
+  Mapper m(p);
+  // Cells of 0.1 m, tiles of 8 cells (0.8 m). Listed against the window's row order: the last
+  // tile in it first, one of its cells again at the end.
+  const PointCloud points{{5.05F, 5.05F, 0.0F}, {0.55F, -3.05F, 0.0F}, {-2.05F, 2.05F, 0.5F},
+                          {0.55F, -3.05F, 1.0F}, {5.15F, 5.05F, 0.0F}};
+  const auto stats = m.integrate(points, Pose::Identity());
+  EXPECT_EQ(stats.scan_cells, 4U);
+  std::vector<CellKey> order;
+  m.map().for_each_tile([&](const CellKey& key, const HMap::Tile&) { order.push_back(key); });
+  ASSERT_EQ(order.size(), 3U);
+  EXPECT_EQ(order[0], (CellKey{6, 6}));
+  EXPECT_EQ(order[1], (CellKey{0, -4}));
+  EXPECT_EQ(order[2], (CellKey{-3, 2}));
+  // Every point's cell holds it: (0.55, -3.05) twice, 1 m apart (two HVoxels).
+  EXPECT_EQ(m.map().column(0.55, -3.05).size(), 2U);
+  EXPECT_EQ(m.map().column(5.05, 5.05).size(), 1U);
+  EXPECT_EQ(m.map().column(5.15, 5.05).size(), 1U);
+  EXPECT_EQ(m.map().column(-2.05, 2.05).size(), 1U);
+  EXPECT_EQ(m.map().column(-2.15, 2.05).size(), 0U);
+}
+
 }  // namespace
 }  // namespace hmap

@@ -63,6 +63,8 @@ class HMap {
   [[nodiscard]] TileColumn column_for_update(const CellKey& key);
   /// A tile for changing its columns, or nullptr. `tile_key` as in tile_of().
   [[nodiscard]] Tile* find_tile(const CellKey& tile_key) { return tiles_.find(tile_key); }
+  /// A tile for changing its columns, allocated if absent. `tile_key` as in tile_of().
+  [[nodiscard]] Tile& tile_for_update(const CellKey& tile_key) { return tiles_.find_or_create(tile_key); }
   [[nodiscard]] const Tile* find_tile(const CellKey& tile_key) const { return tiles_.find(tile_key); }
   /// The HVoxel containing (x, y, z), or nullptr. O(1) + O(log n).
   [[nodiscard]] const HVoxel* hvoxel_at(double x, double y, double z) const;

@@ -43,12 +43,57 @@ ScanStats Mapper::integrate(std::span<const Point3f> points_sensor, const Pose& 
   return stats;
 }
 
+template <typename KeyOf>
+void Mapper::group_by_tile(const ScanWindow& window, std::size_t n, KeyOf key_of, TileGroups& groups) {
+  groups.tile_lo = HMap::tile_of({window.center.i - window.half, window.center.j - window.half});
+  const CellKey tile_hi = HMap::tile_of({window.center.i + window.half, window.center.j + window.half});
+  groups.tiles_wide = static_cast<std::size_t>(tile_hi.j - groups.tile_lo.j + 1);
+  const auto tiles_high = static_cast<std::size_t>(tile_hi.i - groups.tile_lo.i + 1);
+  groups.start.assign(groups.tiles_wide * tiles_high + 1, 0);
+  groups.bucket.resize(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    const CellKey t = HMap::tile_of(key_of(k));
+    const auto b = static_cast<std::uint32_t>(static_cast<std::size_t>(t.i - groups.tile_lo.i) * groups.tiles_wide +
+                                              static_cast<std::size_t>(t.j - groups.tile_lo.j));
+    groups.bucket[k] = b;
+    ++groups.start[b + 1];
+  }
+  groups.used.clear();
+  for (std::size_t b = 0; b + 1 < groups.start.size(); ++b) {
+    if (groups.start[b + 1] != 0) groups.used.push_back(static_cast<std::uint32_t>(b));
+    groups.start[b + 1] += groups.start[b];
+  }
+  // start[b] as the write cursor of tile b, then restored from the tile before.
+  groups.order.resize(n);
+  for (std::size_t k = 0; k < n; ++k) groups.order[groups.start[groups.bucket[k]]++] = static_cast<std::uint32_t>(k);
+  for (std::size_t b = groups.start.size() - 1; b > 0; --b) groups.start[b] = groups.start[b - 1];
+  groups.start[0] = 0;
+}
+
 void Mapper::merge_scan() {
   const MapParams& p = map_.params().map;
   const auto gap = static_cast<float>(p.point_distance_threshold);
-  for (const ScanCell& cell : scan_.cells) {
-    TileColumn column = map_.column_for_update(cell.key);
-    for (const HVoxel& v : scan_.hvoxels_of(cell)) column.merge(v, gap, p);
+  // Tile by tile: one lookup per tile, and its buffer in cache while its columns merge. The tiles
+  // the map lacks are made first, in the order of their first cell in the scan, as a lookup per
+  // cell made them: the map's tiles stay in the same order.
+  TileGroups& g = merge_groups_;
+  group_by_tile(scan_.window, scan_.cells.size(), [this](std::size_t k) { return scan_.cells[k].key; }, g);
+  tile_of_group_.resize(g.used.size());
+  new_tiles_.clear();
+  for (std::size_t u = 0; u < g.used.size(); ++u) {
+    tile_of_group_[u] = map_.find_tile(g.tile_key(g.used[u]));
+    if (tile_of_group_[u] == nullptr) new_tiles_.emplace_back(g.order[g.start[g.used[u]]], static_cast<std::uint32_t>(u));
+  }
+  std::sort(new_tiles_.begin(), new_tiles_.end());
+  for (const auto& [first, u] : new_tiles_) tile_of_group_[u] = &map_.tile_for_update(g.tile_key(g.used[u]));
+  for (std::size_t u = 0; u < g.used.size(); ++u) {
+    HMap::Tile& tile = *tile_of_group_[u];
+    const std::uint32_t b = g.used[u];
+    for (std::uint32_t k = g.start[b]; k != g.start[b + 1]; ++k) {
+      const ScanCell& cell = scan_.cells[g.order[k]];
+      TileColumn column(tile, HMap::local_index(cell.key));
+      for (const HVoxel& v : scan_.hvoxels_of(cell)) column.merge(v, gap, p);
+    }
   }
 }
 
@@ -74,49 +119,24 @@ void Mapper::extrude_free_space(ScanStats& stats) {
   const auto& scan_cell_of_window = hvoxelizer_.cell_of_window();
   const auto& free_cells = tracer_.cells();
   // Each free cell changes only its own column, and no tile is created; the columns of a tile
-  // share its buffer, so each tile's cells go to one thread. The cells are grouped by tile (a
-  // stable counting sort over the window's tiles), so that a tile is looked up once for all its
-  // cells and its buffer stays in cache while they are carved; within a tile they keep the
-  // tracer's order, so the edits, and the buffer's growth, are the same whatever the threads.
+  // share its buffer, so each tile's cells go to one thread. The cells are grouped by tile, so
+  // that a tile is looked up once for all its cells and its buffer stays in cache while they are
+  // carved; within a tile they keep the tracer's order, so the edits, and the buffer's growth,
+  // are the same whatever the threads.
+  TileGroups& g = free_groups_;
   const ScanWindow& window = scan_.window;
-  const CellKey tile_lo = HMap::tile_of({window.center.i - window.half, window.center.j - window.half});
-  const CellKey tile_hi = HMap::tile_of({window.center.i + window.half, window.center.j + window.half});
-  const auto tiles_wide = static_cast<std::size_t>(tile_hi.j - tile_lo.j + 1);
-  const auto tiles_high = static_cast<std::size_t>(tile_hi.i - tile_lo.i + 1);
-  tile_start_.assign(tiles_wide * tiles_high + 1, 0);
-  bucket_of_cell_.resize(free_cells.size());
-  for (std::size_t k = 0; k < free_cells.size(); ++k) {
-    const CellKey t = HMap::tile_of(free_cells[k]->key);
-    const auto bucket = static_cast<std::uint32_t>(static_cast<std::size_t>(t.i - tile_lo.i) * tiles_wide +
-                                                   static_cast<std::size_t>(t.j - tile_lo.j));
-    bucket_of_cell_[k] = bucket;
-    ++tile_start_[bucket + 1];
-  }
-  tiles_used_.clear();
-  for (std::size_t b = 0; b + 1 < tile_start_.size(); ++b) {
-    if (tile_start_[b + 1] != 0) tiles_used_.push_back(static_cast<std::uint32_t>(b));
-    tile_start_[b + 1] += tile_start_[b];
-  }
-  by_tile_.resize(free_cells.size());
-  {
-    // tile_start_[b] as the write cursor of tile b, then restored from the next tile's start.
-    for (std::size_t k = 0; k < free_cells.size(); ++k) by_tile_[tile_start_[bucket_of_cell_[k]]++] = free_cells[k];
-    for (std::size_t b = tile_start_.size() - 1; b > 0; --b) tile_start_[b] = tile_start_[b - 1];
-    tile_start_[0] = 0;
-  }
+  group_by_tile(window, free_cells.size(), [&free_cells](std::size_t k) { return free_cells[k]->key; }, g);
   tbb::enumerable_thread_specific<std::vector<FreeHVoxel>> pieces_of_thread;
   tbb::enumerable_thread_specific<ExtrusionCounts> counts_of_thread;
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, tiles_used_.size(), 16), [&](const auto& range) {
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, g.used.size(), 16), [&](const auto& range) {
     auto& pieces = pieces_of_thread.local();
     auto& counts = counts_of_thread.local();
     for (std::size_t u = range.begin(); u != range.end(); ++u) {
-      const std::uint32_t bucket = tiles_used_[u];
-      const CellKey tile_key{tile_lo.i + static_cast<std::int32_t>(bucket / tiles_wide),
-                             tile_lo.j + static_cast<std::int32_t>(bucket % tiles_wide)};
-      HMap::Tile* tile = map_.find_tile(tile_key);
+      const std::uint32_t b = g.used[u];
+      HMap::Tile* tile = map_.find_tile(g.tile_key(b));
       if (tile == nullptr) continue;
-      for (std::uint32_t k = tile_start_[bucket]; k != tile_start_[bucket + 1]; ++k) {
-        const FreeCell& free_cell = *by_tile_[k];
+      for (std::uint32_t k = g.start[b]; k != g.start[b + 1]; ++k) {
+        const FreeCell& free_cell = *free_cells[g.order[k]];
         TileColumn column(*tile, HMap::local_index(free_cell.key));
         if (column.empty()) continue;
         // Within one scan a hit outranks a pass-through, as in OctoMap: the scan's own HVoxels in

@@ -3,6 +3,7 @@
 
 #include <cstdint>
 #include <span>
+#include <utility>
 #include <vector>
 
 #include "hmap/maps/extrusion.hpp"
@@ -50,11 +51,27 @@ class Mapper {
   ScanHVoxelizer hvoxelizer_;
   FreeSpaceTracer tracer_;
   ScanHVoxels scan_;
-  // The free cells grouped by the tile of the scan window they fall in (extrusion): a counting sort.
-  std::vector<std::uint32_t> tile_start_;      // per window tile: where its cells start in by_tile_
-  std::vector<std::uint32_t> bucket_of_cell_;  // per free cell: its window tile
-  std::vector<const FreeCell*> by_tile_;       // the free cells, tile by tile, in tracer order within one
-  std::vector<std::uint32_t> tiles_used_;      // the window tiles holding free cells
+  /// Items (scan cells, free cells) grouped by the tile of the scan window their cell falls in: a
+  /// stable counting sort, so that each tile is looked up once and its items stay in their order.
+  struct TileGroups {
+    CellKey tile_lo;                          // the window's first tile
+    std::size_t tiles_wide = 0;               // window tiles per row
+    std::vector<std::uint32_t> start;         // per window tile: where its items start in `order`
+    std::vector<std::uint32_t> bucket;        // per item: its window tile
+    std::vector<std::uint32_t> order;         // the items' indices, tile by tile
+    std::vector<std::uint32_t> used;          // the window tiles holding items, in window order
+    [[nodiscard]] CellKey tile_key(std::uint32_t b) const {
+      return {tile_lo.i + static_cast<std::int32_t>(b / tiles_wide), tile_lo.j + static_cast<std::int32_t>(b % tiles_wide)};
+    }
+  };
+  /// Fills `groups` with the indices 0..n-1 by the window tile of key_of(k).
+  template <typename KeyOf>
+  static void group_by_tile(const ScanWindow& window, std::size_t n, KeyOf key_of, TileGroups& groups);
+
+  TileGroups merge_groups_;                 // the scan's cells (merging)
+  TileGroups free_groups_;                  // the free cells (extrusion)
+  std::vector<HMap::Tile*> tile_of_group_;  // merging: the tile of each used window tile
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> new_tiles_;  // merging: (first cell, used index)
 };
 
 }  // namespace hmap
