@@ -4,8 +4,12 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
+#include <random>
+#include <vector>
 
 namespace hmap {
 namespace {
@@ -129,6 +133,70 @@ TEST(ScanHVoxelsTest, NonFinitePoseIsAnError) {
   T.translation().x() = std::numeric_limits<double>::quiet_NaN();
   PointCloud a = {{1.5F, 1.5F, 0.0F}};
   EXPECT_THROW(h.build(a, T, r), Error);
+}
+
+// Alg. 2 against a brute-force twin (each cell's heights sorted in full, split where a gap exceeds
+// the threshold), over cells of 1 to 150 points in every order the sorting paths meet: ascending,
+// descending (a spinning sensor's rings from the top down), shuffled, and with ties. Half the
+// cells span the threshold or less, some exactly, and are one HVoxel whatever their order; some
+// span just more, and split.
+TEST(ScanHVoxelsTest, ClustersAgreeWithASortedTwinInEveryOrder) {
+  MapParams p = unit_params();
+  p.point_distance_threshold = 0.25;
+  p.max_range = 100.0;
+  ScanHVoxelizer h(p);
+  ScanHVoxels r;
+  std::mt19937 rng(2212);
+  std::uniform_real_distribution<float> unit(0.0F, 1.0F);
+  for (int trial = 0; trial < 50; ++trial) {
+    PointCloud pts;
+    std::vector<std::vector<float>> heights_of_cell;
+    for (int c = 0; c < 60; ++c) {
+      const int n = 1 + static_cast<int>(rng() % (c % 3 == 0 ? 150U : 20U));
+      std::vector<float> z(static_cast<std::size_t>(n));
+      const int kind = static_cast<int>(rng() % 5);
+      for (float& v : z) {
+        switch (kind) {
+          case 0: v = 0.25F * unit(rng); break;                            // within the threshold
+          case 1: v = static_cast<float>(rng() % 2) * 0.25F; break;        // span exactly 0.25, ties
+          case 2: v = 3.0F * unit(rng); break;                             // several clusters
+          case 3: v = static_cast<float>(rng() % 2) * 0.3F; break;         // a gap just above it
+          default: v = (rng() % 3 == 0 ? 1.5F : 0.0F) + 0.2F * unit(rng);  // two clusters
+        }
+      }
+      const int order = static_cast<int>(rng() % 3);
+      if (order == 0) std::sort(z.begin(), z.end());
+      if (order == 1) std::sort(z.begin(), z.end(), std::greater<>());
+      const float x = 0.5F + static_cast<float>(c % 8);
+      const float y = 0.5F + static_cast<float>(c / 8);
+      for (const float v : z) pts.emplace_back(x, y, v);
+      heights_of_cell.push_back(z);
+    }
+    h.build(pts, Pose::Identity(), r);
+    ASSERT_EQ(r.cells.size(), heights_of_cell.size());
+    for (std::size_t c = 0; c < heights_of_cell.size(); ++c) {
+      std::vector<float> z = heights_of_cell[c];
+      std::sort(z.begin(), z.end());
+      std::vector<HVoxel> twin;
+      std::size_t first = 0;
+      for (std::size_t k = 1; k <= z.size(); ++k) {
+        if (k == z.size() || z[k] - z[k - 1] > 0.25F) {
+          twin.push_back({z[first], z[k - 1], static_cast<float>(k - first), 0.0F});
+          first = k;
+        }
+      }
+      const ScanCell& cell = r.cells[c];  // cells are numbered in order of first appearance
+      ASSERT_EQ(cell.key, (CellKey{static_cast<std::int32_t>(c % 8), static_cast<std::int32_t>(c / 8)}));
+      const auto v = r.hvoxels_of(cell);
+      ASSERT_EQ(v.size(), twin.size()) << "trial " << trial << " cell " << c;
+      for (std::size_t k = 0; k < twin.size(); ++k) {
+        EXPECT_EQ(v[k].z_min, twin[k].z_min);
+        EXPECT_EQ(v[k].z_max, twin[k].z_max);
+        EXPECT_EQ(v[k].count, twin[k].count);
+        EXPECT_FLOAT_EQ(v[k].density, hvoxel_density(twin[k].count, twin[k].height(), p));
+      }
+    }
+  }
 }
 
 }  // namespace

@@ -198,6 +198,14 @@ void ScanHVoxelizer::cluster_heights(ScanHVoxels& out) {
           sorted[static_cast<std::size_t>(rank)] = z[i];
         }
         std::copy_n(sorted.begin(), n, z);
+      } else if (float* lo = std::min_element(z, z_end), *hi = std::max_element(z, z_end); *hi - *lo <= gap) {
+        // All heights within the point-distance threshold of each other: one cluster, whatever
+        // their order (no sorted difference can exceed the span: rounding is monotonic). Only its
+        // ends are placed; the heights between stay unsorted, and their differences, none above
+        // the span, split nothing below. Most cells of ground and of short objects are such.
+        std::iter_swap(z, lo);
+        if (hi == z) hi = lo;  // the maximum was at the front: swapped to lo's place
+        std::iter_swap(z_end - 1, hi);
       } else {
       // Insertion sort costs one move per inversion, and ring order leaves few: it beats
       // std::sort even for hundreds of points, until the moves pass a budget of 8 per point.
