@@ -137,7 +137,7 @@ TEST(ScanHVoxelsTest, NonFinitePoseIsAnError) {
 
 // Alg. 2 against a brute-force twin (each cell's heights sorted in full, split where a gap exceeds
 // the threshold), over cells of 1 to 150 points in every order the sorting paths meet: ascending,
-// descending (a spinning sensor's rings from the top down), shuffled, and with ties. Half the
+// descending (a spinning sensor's rings from the top down), shuffled, and with ties. Two in five
 // cells span the threshold or less, some exactly, and are one HVoxel whatever their order; some
 // span just more, and split.
 TEST(ScanHVoxelsTest, ClustersAgreeWithASortedTwinInEveryOrder) {
