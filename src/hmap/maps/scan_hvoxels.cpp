@@ -184,11 +184,17 @@ void ScanHVoxelizer::cluster_heights(ScanHVoxels& out) {
     for (std::size_t c = range.begin(); c != range.end(); ++c) {
       float* z = sorted_z_.data() + cell_offset_[c];
       float* z_end = sorted_z_.data() + cell_offset_[c + 1];
-      // A spinning sensor lists a cell's points ring by ring, often from the top ring down: the
-      // heights come nearly in descending order, insertion sort's worst case. Reversed first,
-      // they come nearly ascending, its best.
       const std::ptrdiff_t n = z_end - z;
-      if (n <= kRankSortMax) {
+      if (float* lo = std::min_element(z, z_end), *hi = std::max_element(z, z_end); *hi - *lo <= gap) {
+        // All heights within the point-distance threshold of each other: one cluster, whatever
+        // their order (no sorted difference can exceed the span: rounding is monotonic). Only its
+        // ends are placed; the heights between stay unsorted, and their differences, none above
+        // the span, split nothing below. Most cells of ground and of short objects are such; a
+        // pass for the ends costs less than the rank sort even for a few heights.
+        std::iter_swap(z, lo);
+        if (hi == z) hi = lo;  // the maximum was at the front: swapped to lo's place
+        std::iter_swap(z_end - 1, hi);
+      } else if (n <= kRankSortMax) {
         // Small cells: each height goes to its rank (the heights below it, ties by position).
         // Branch-free, where insertion sort mispredicts once per inversion.
         std::array<float, kRankSortMax> sorted{};
@@ -198,15 +204,10 @@ void ScanHVoxelizer::cluster_heights(ScanHVoxels& out) {
           sorted[static_cast<std::size_t>(rank)] = z[i];
         }
         std::copy_n(sorted.begin(), n, z);
-      } else if (float* lo = std::min_element(z, z_end), *hi = std::max_element(z, z_end); *hi - *lo <= gap) {
-        // All heights within the point-distance threshold of each other: one cluster, whatever
-        // their order (no sorted difference can exceed the span: rounding is monotonic). Only its
-        // ends are placed; the heights between stay unsorted, and their differences, none above
-        // the span, split nothing below. Most cells of ground and of short objects are such.
-        std::iter_swap(z, lo);
-        if (hi == z) hi = lo;  // the maximum was at the front: swapped to lo's place
-        std::iter_swap(z_end - 1, hi);
       } else {
+      // A spinning sensor lists a cell's points ring by ring, often from the top ring down: the
+      // heights come nearly in descending order, insertion sort's worst case. Reversed first,
+      // they come nearly ascending, its best.
       // Insertion sort costs one move per inversion, and ring order leaves few: it beats
       // std::sort even for hundreds of points, until the moves pass a budget of 8 per point.
       if (z_end - z > 2 && *z > *(z_end - 1)) std::reverse(z, z_end);
