@@ -190,7 +190,8 @@ void ScanHVoxelizer::cluster_heights(ScanHVoxels& out) {
         // their order (no sorted difference can exceed the span: rounding is monotonic). Only its
         // ends are placed; the heights between stay unsorted, and their differences, none above
         // the span, split nothing below. Most cells of ground and of short objects are such; a
-        // pass for the ends costs less than the rank sort even for a few heights.
+        // pass for the ends costs less than the rank sort even for a few heights. (Two passes:
+        // std::minmax_element's one was slower, 2.33 -> 2.55 ms for BM_HVoxelizeHdl64.)
         std::iter_swap(z, lo);
         if (hi == z) hi = lo;  // the maximum was at the front: swapped to lo's place
         std::iter_swap(z_end - 1, hi);
