@@ -1,6 +1,8 @@
 #include "hmap/slam/hmap_slam.hpp"
 
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
+#include <tbb/task_arena.h>
 
 #include <cmath>
 #include <limits>
@@ -93,6 +95,48 @@ TEST(HmapSlam, FollowsASimulatedDrive) {
   }
   EXPECT_EQ(slam.scans(), 6U);
   EXPECT_FALSE(slam.map().empty());
+}
+
+TEST(HmapSlam, TheSameResultOnOneThreadAndOnFour) {
+  // The matcher's sums, the degeneracy probes and the attitude fit's pairings run on the cores;
+  // every sum is made in a fixed order, so the poses, the curvatures and the fits are bit for bit
+  // the same whatever the threads. A tilted sensor with no attitude given: the floor and the map
+  // surfaces set z, roll and pitch, so the attitude fit runs on every scan.
+  const sim::Scene scene = yard();
+  sim::SpinningLidar lidar(sim::SpinningLidarParams::hdl64e());
+  const Attitude att{1.8, 3.0 * kDeg, -2.0 * kDeg};
+  std::vector<PointCloud> scans;
+  for (int k = 0; k < 5; ++k) {
+    const PlanarPose truth{0.08 * k, 0.005 * k * k, 0.3 * kDeg * k};
+    scans.push_back(lidar.scan(scene, compose(truth, att), 0.1 * k).points_sensor);
+  }
+  const auto run = [&](int threads) {
+    std::vector<SlamStep> steps;
+    tbb::task_arena arena(threads);
+    arena.execute([&] {
+      HmapSlam slam(yard_params());
+      for (const PointCloud& scan : scans) steps.push_back(slam.process(scan, std::nullopt));
+    });
+    return steps;
+  };
+  const tbb::global_control allow(tbb::global_control::max_allowed_parallelism, 4);
+  const std::vector<SlamStep> one = run(1);
+  const std::vector<SlamStep> four = run(4);
+  ASSERT_EQ(one.size(), four.size());
+  for (std::size_t k = 1; k < one.size(); ++k) {
+    ASSERT_TRUE(one[k].matched && !one[k].match.skipped) << k;
+    EXPECT_TRUE(one[k].attitude.ran) << k;
+    EXPECT_GT(one[k].attitude.surfaces, 100U) << k;
+    EXPECT_EQ(one[k].T_map_sensor.matrix(), four[k].T_map_sensor.matrix()) << k;
+    EXPECT_EQ(one[k].match.curvature, four[k].match.curvature) << k;
+    EXPECT_EQ(one[k].match.hessian, four[k].match.hessian) << k;
+    EXPECT_EQ(one[k].attitude.surfaces, four[k].attitude.surfaces) << k;
+    EXPECT_EQ(one[k].attitude.rms, four[k].attitude.rms) << k;
+    // And the tilt is the sensor's, from the scans alone.
+    const Attitude est = attitude_of(one[k].T_map_sensor);
+    EXPECT_NEAR(est.roll, att.roll, 0.2 * kDeg) << k;
+    EXPECT_NEAR(est.pitch, att.pitch, 0.2 * kDeg) << k;
+  }
 }
 
 TEST(HmapSlam, WallRefinementPlacesScansWithinACellSmallerMatch) {

@@ -1,5 +1,8 @@
 #include "hmap/slam/attitude.hpp"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <Eigen/Dense>
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -106,8 +109,18 @@ std::optional<Eigen::Vector3d> floor_normal(const ScanHVoxels& scan_sensor, cons
   Eigen::Vector3d best_n = Eigen::Vector3d::UnitZ();
   double best_d = 0.0;
   constexpr int kSamples = 300;
-  // Hypotheses are scored on at most 1500 samples, evenly thinned; the refit uses them all.
+  // Hypotheses are scored on at most 1500 samples, evenly thinned; the refit uses them all. The
+  // scored ones are kept by coordinate, so that the count runs vectorised, block by block.
   const std::size_t score_stride = std::max<std::size_t>(1, pts.size() / 1500);
+  std::vector<double> xs;
+  std::vector<double> ys;
+  std::vector<double> zs;
+  for (std::size_t k = 0; k < pts.size(); k += score_stride) {
+    xs.push_back(pts[k].x());
+    ys.push_back(pts[k].y());
+    zs.push_back(pts[k].z());
+  }
+  const std::size_t scored = xs.size();
   for (int it = 0; it < kSamples; ++it) {
     const Eigen::Vector3d& a = pts[rng.below(pts.size())];
     const Eigen::Vector3d& b = pts[rng.below(pts.size())];
@@ -121,10 +134,17 @@ std::optional<Eigen::Vector3d> floor_normal(const ScanHVoxels& scan_sensor, cons
     const double d = n.dot(a);
     // Counted until even the remaining samples could not bring it to the best (a tie still can
     // win, below): the same plane is kept, at about half the scoring on a scan's bad hypotheses.
+    // Checked once per block: a count given up a block later is still short of the best.
+    constexpr std::size_t kBlock = 64;
     std::size_t count = 0;
-    std::size_t remaining = (pts.size() + score_stride - 1) / score_stride;
-    for (std::size_t k = 0; k < pts.size() && count + remaining >= best; k += score_stride, --remaining) {
-      count += std::abs(n.dot(pts[k]) - d) <= tolerance ? 1 : 0;
+    for (std::size_t k0 = 0; k0 < scored && count + (scored - k0) >= best; k0 += kBlock) {
+      const std::size_t k1 = std::min(scored, k0 + kBlock);
+      std::size_t in_block = 0;
+      for (std::size_t k = k0; k < k1; ++k) {
+        // n.dot(p) as Eigen sums it, x first.
+        in_block += std::abs(n.x() * xs[k] + n.y() * ys[k] + n.z() * zs[k] - d) <= tolerance ? 1 : 0;
+      }
+      count += in_block;
     }
     // Ties go to the lower plane: a floor, not a table top above it.
     if (count > best || (count == best && d < best_d)) {
@@ -192,26 +212,37 @@ AttitudeFit AttitudeRefiner::refine(const ScanHVoxels& scan_level, const HMap& m
     double r2 = 0.0;
     double agreement = 0.0;
     std::size_t pairs = 0;
-    for (const Sample& smp : samples_) {
-      const Eigen::Vector3d q = R * smp.p;  // relative to the sensor, corrected
-      const double mz = o.z() + q.z() + dz;
-      const std::optional<CellKey> key = map.key_of(x + c * q.x() - sn * q.y(), y + sn * q.x() + c * q.y());
-      const std::span<const HVoxel> col = key ? view_.column(*key) : std::span<const HVoxel>{};
-      double best = gate;
-      double surface = 0.0;
-      bool found = false;
-      for (const HVoxel& v : col) {
-        if (v.height() > thin) continue;
-        const double mid = 0.5 * (static_cast<double>(v.z_min) + v.z_max);
-        const double e = std::abs(mz - mid);
-        if (e < best) {
-          best = e;
-          surface = mid;
-          found = true;
+    // The pairings, the map lookups, on the cores; then summed in the samples' order, so that the
+    // sums do not depend on the threads.
+    pairings_.resize(samples_.size());
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, samples_.size(), 512), [&](const auto& range) {
+      for (std::size_t k = range.begin(); k != range.end(); ++k) {
+        Pairing& pr = pairings_[k];
+        pr.q = R * samples_[k].p;
+        const Eigen::Vector3d& q = pr.q;
+        const double mz = o.z() + q.z() + dz;
+        const std::optional<CellKey> key = map.key_of(x + c * q.x() - sn * q.y(), y + sn * q.x() + c * q.y());
+        const std::span<const HVoxel> col = key ? view_.column(*key) : std::span<const HVoxel>{};
+        double best = gate;
+        double surface = 0.0;
+        pr.found = false;
+        for (const HVoxel& v : col) {
+          if (v.height() > thin) continue;
+          const double mid = 0.5 * (static_cast<double>(v.z_min) + v.z_max);
+          const double e = std::abs(mz - mid);
+          if (e < best) {
+            best = e;
+            surface = mid;
+            pr.found = true;
+          }
         }
+        pr.r = mz - surface;
       }
-      if (!found) continue;
-      const double r = mz - surface;
+    });
+    for (const Pairing& pr : pairings_) {
+      if (!pr.found) continue;
+      const Eigen::Vector3d& q = pr.q;
+      const double r = pr.r;
       const double w = std::abs(r) <= huber ? 1.0 : huber / std::abs(r);
       // d(mz) / d(dz, wx, wy) for a rotation δw applied on the left: δz = wx·q_y − wy·q_x.
       const Eigen::Vector3d J(1.0, q.y(), -q.x());

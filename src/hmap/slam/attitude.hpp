@@ -86,8 +86,15 @@ class AttitudeRefiner {
     Eigen::Vector3d p;  // centre of a thin scan HVoxel in the level frame of the guess [m]
     double weight;
   };
+  /// A sample's pairing in one iteration: its corrected position and the surface it meets.
+  struct Pairing {
+    Eigen::Vector3d q;  // relative to the sensor, corrected [m]
+    double r;           // height above the nearest thin map surface within the gate [m]
+    bool found;
+  };
   Params params_;
   std::vector<Sample> samples_;
+  std::vector<Pairing> pairings_;
   LocalMapView view_;  // the map's tiles around the scan: one hash lookup per tile, not per sample
 };
 

@@ -251,13 +251,25 @@ void ScanMatcher::assess_degeneracy(MatchResult& result) {
   const std::size_t stride = std::max<std::size_t>(1, candidates_.size() / kCurvatureHVoxels);
   std::size_t used = 0;
   for (std::size_t k = 0; k < candidates_.size(); k += stride) ++used;
+  // The cost at the pose and one step either way along each eigenvector: seven independent sums
+  // over the same thinned HVoxels, on the cores. cost_only leaves the cached F values alone, so the
+  // sums do not race, and each is the same single-chunk sum linearize would make.
   const PlanarPose& p = result.pose;
-  const double f0 = linearize(p, stride).cost;
+  std::array<PlanarPose, 7> probes;
+  probes[0] = p;
   for (int k = 0; k < 3; ++k) {
     const Eigen::Vector3d step = d.asDiagonal() * (h * eig.eigenvectors().col(k));
-    const double fp = linearize({p.x + step(0), p.y + step(1), p.yaw + step(2)}, stride).cost;
-    const double fm = linearize({p.x - step(0), p.y - step(1), p.yaw - step(2)}, stride).cost;
-    result.curvature(k) = (fp + fm - 2.0 * f0) / (h * h) / static_cast<double>(used);
+    probes[static_cast<std::size_t>(1 + 2 * k)] = {p.x + step(0), p.y + step(1), p.yaw + step(2)};
+    probes[static_cast<std::size_t>(2 + 2 * k)] = {p.x - step(0), p.y - step(1), p.yaw - step(2)};
+  }
+  std::array<double, 7> f{};
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, probes.size(), 1), [&](const auto& range) {
+    for (std::size_t i = range.begin(); i != range.end(); ++i) f[i] = cost_only(probes[i], stride);
+  });
+  for (int k = 0; k < 3; ++k) {
+    const double fp = f[static_cast<std::size_t>(1 + 2 * k)];
+    const double fm = f[static_cast<std::size_t>(2 + 2 * k)];
+    result.curvature(k) = (fp + fm - 2.0 * f[0]) / (h * h) / static_cast<double>(used);
   }
   const double cmax = result.curvature.maxCoeff();
   result.degenerate = !(cmax > 0.0) || result.curvature.minCoeff() < params_.slam.degeneracy_ratio * cmax;
