@@ -90,6 +90,7 @@ std::optional<Eigen::Vector3d> floor_normal(const ScanHVoxels& scan_sensor, cons
   const double s = params.map.cell_size;
   const double thin = params.slam.surface_max_height;
   std::vector<Eigen::Vector3d> pts;
+  pts.reserve(scan_sensor.cells.size());
   for (const ScanCell& cell : scan_sensor.cells) {
     for (const HVoxel& v : scan_sensor.hvoxels_of(cell)) {
       const double zc = 0.5 * (static_cast<double>(v.z_min) + v.z_max) - scan_sensor.origin_map.z();
@@ -136,15 +137,23 @@ std::optional<Eigen::Vector3d> floor_normal(const ScanHVoxels& scan_sensor, cons
     // win, below): the same plane is kept, at about half the scoring on a scan's bad hypotheses.
     // Checked once per block: a count given up a block later is still short of the best.
     constexpr std::size_t kBlock = 64;
+    const double nx = n.x();
+    const double ny = n.y();
+    const double nz = n.z();
+    const double* px = xs.data();
+    const double* py = ys.data();
+    const double* pz = zs.data();
     std::size_t count = 0;
     for (std::size_t k0 = 0; k0 < scored && count + (scored - k0) >= best; k0 += kBlock) {
       const std::size_t k1 = std::min(scored, k0 + kBlock);
-      std::size_t in_block = 0;
+      // Counted in a double (exact below 2^53): GCC vectorises the test with SSE2 then, not with an
+      // integer count.
+      double in_block = 0.0;
       for (std::size_t k = k0; k < k1; ++k) {
         // n.dot(p) as Eigen sums it, x first.
-        in_block += std::abs(n.x() * xs[k] + n.y() * ys[k] + n.z() * zs[k] - d) <= tolerance ? 1 : 0;
+        in_block += std::abs(nx * px[k] + ny * py[k] + nz * pz[k] - d) <= tolerance ? 1.0 : 0.0;
       }
-      count += in_block;
+      count += static_cast<std::size_t>(in_block);
     }
     // Ties go to the lower plane: a floor, not a table top above it.
     if (count > best || (count == best && d < best_d)) {
