@@ -13,6 +13,7 @@
 #include "hmap/core/format.hpp"
 #include "hmap/core/sensor_profile.hpp"
 #include "hmap/io/atomic_file.hpp"
+#include "hmap/io/gravity.hpp"
 #include "hmap/io/hmap_file.hpp"
 #include "hmap/io/imu_text.hpp"
 #include "hmap/io/kitti.hpp"
@@ -123,7 +124,13 @@ void run_slam(const SlamOptions& o) {
   } else if (!o.start.empty() || o.search != 5.0 || o.search_yaw_deg != 180.0) {
     throw Error("--start, --search and --search-yaw place the first scan in a continued map: they need --continue");
   }
-  prepare_output_set(o.out, {"poses.txt", "poses_tum.txt", "matches.csv", "loop_closures.csv", "map.hmap", "trajectory.png"}, "slam");  // before the work
+  // 'source' poses come from an RGB-D folder or a bag: refused before anything is read otherwise.
+  const bool sensor_input = !o.sensors.rgbd.empty() || !o.sensors.tum.empty() || !o.sensors.bag.empty();
+  if (o.odometry == "source" && !sensor_input) {
+    throw Error("--odometry source needs an RGB-D folder or a bag (their poses are the odometry)");
+  }
+  if (o.gt == "source" && !sensor_input) throw Error("--gt source needs an RGB-D folder or a bag (their poses are the truth)");
+  prepare_output_set(o.out, {"poses.txt", "poses_tum.txt", "matches.csv", "loop_closures.csv", "map.hmap", "trajectory.png", "truth.txt"}, "slam");  // before the work
   if (!o.mcap.empty()) check_mcap_output(o.mcap);
   const ScanSource src = o.open_inputs(/*poses_required=*/false);  // no --poses here
   // Defaults the first scan can tell (the ring spacing), for parameters left at the preset's value.
@@ -174,9 +181,12 @@ void run_slam(const SlamOptions& o) {
   std::optional<PoseList> attitude;
   std::optional<PoseList> odometry;
   std::optional<PoseList> truth;
-  if (!o.attitude_from.empty()) {
+  // --attitude-from scans: z, roll and pitch from the scans even where the input has poses (an
+  // RGB-D folder's are its tracker's, 7-Scenes' and TUM's the ground truth).
+  const bool attitude_from_scans = o.attitude_from == "scans";
+  if (!o.attitude_from.empty() && !attitude_from_scans) {
     attitude = read_scan_poses(o.attitude_from, n, T_cam_velo);
-  } else if (sensor_poses) {
+  } else if (sensor_poses && !attitude_from_scans) {
     attitude = *src.T_map_scan;
   }
   if (o.odometry == "source") {
@@ -184,7 +194,12 @@ void run_slam(const SlamOptions& o) {
   } else if (!o.odometry.empty()) {
     odometry = read_scan_poses(o.odometry, n, T_cam_velo);
   }
-  if (!o.gt.empty()) truth = read_scan_poses(o.gt, n, T_cam_velo);
+  if (o.gt == "source") {
+    if (!sensor_poses) throw Error("--gt source needs an RGB-D folder or a bag (their poses are the truth)");
+    truth = *src.T_map_scan;
+  } else if (!o.gt.empty()) {
+    truth = read_scan_poses(o.gt, n, T_cam_velo);
+  }
 
   std::optional<slam::HmapSlam> holder;
   MapStats old_stats;
@@ -208,6 +223,24 @@ void run_slam(const SlamOptions& o) {
   // pose (x, y, yaw below; its height here), so that ATE needs no alignment. A continued map's
   // frame is the saved one.
   if (!old && !attitude && (odometry || truth)) slam.start_at_height(slam::attitude_of(odometry ? odometry->front() : truth->front()).z);
+  // A depth camera's frame is optical (y down): the first frame's tilt guess is its floor's, found
+  // about −y (a LiDAR's frame is taken as level, its floor found about +z by the first match).
+  std::string first_tilt;
+  const bool optical = !o.sensors.rgbd.empty() || !o.sensors.tum.empty();
+  if (!old && !attitude && optical && first) {
+    const std::optional<SensorFloor> floor = floor_under_sensor(*first, -Eigen::Vector3d::UnitY());
+    if (!floor) {
+      throw InputError(src.scans.front().string(), "",
+                       "the first depth frame shows no floor within 34° of the camera's -y axis, so its tilt is not "
+                       "known: give the attitude (--attitude-from POSES, or drop --attitude-from scans to use the "
+                       "folder's poses)");
+    }
+    slam.start_with_up(floor->up_sensor);
+    const slam::Attitude a = slam.first_attitude();
+    first_tilt = format(" First frame levelled by its floor (%zu of %zu points): roll %.1f°, pitch %.1f°, camera %.2f m above it.",
+                        floor->inliers, floor->points, a.roll * 180.0 / std::numbers::pi, a.pitch * 180.0 / std::numbers::pi,
+                        floor->sensor_height);
+  }
   std::optional<slam::MapAlignResult> relocalised;
   double relocalise_ms = 0.0;  // the first scan of a continued map: its search and match
   PoseList estimate;
@@ -365,6 +398,7 @@ void run_slam(const SlamOptions& o) {
   // The poses, the map and the picture are one set: a kill leaves the old folder or the new one.
   write_folder_atomic(o.out, [&](const std::filesystem::path& dir) {
     write_poses_kitti(dir / "poses.txt", estimate);
+    if (o.gt == "source") write_poses_kitti(dir / "truth.txt", *truth);
     write_poses_tum(dir / "poses_tum.txt", times, estimate);
     write_file_atomic(dir / "matches.csv", log);
     if (loops) write_file_atomic(dir / "loop_closures.csv", loop_log);
@@ -390,17 +424,19 @@ void run_slam(const SlamOptions& o) {
       "SLAM on %zu scans: %.1f ms per scan (%.1f scans/s, matching and map update), %.1f Gauss-Newton "
       "iterations per scan, %zu of %zu matches converged, %zu degenerate, %zu needed the coarse search, "
       "%zu kept the guess (fewer than %zu HVoxels)%s, mean M_H %.3f. The map has %zu cells and %zu HVoxels (cell %.3f m). Wrote %s/{poses.txt, poses_tum.txt, "
-      "map.hmap, trajectory.png, matches.csv}%s. Attitude (z, roll, pitch): %s.%s%s%s Deskewed: %zu of %zu scans "
+      "map.hmap, trajectory.png, matches.csv%s}%s. Attitude (z, roll, pitch): %s.%s%s%s%s Deskewed: %zu of %zu scans "
       "(per-point time).\n",
       n, n > 0 ? ms_total / static_cast<double>(n) : 0.0,
       ms_total > 0.0 ? 1000.0 * static_cast<double>(n) / ms_total : 0.0, static_cast<double>(iterations) / matched,
       converged, matches, degenerate, coarse, skipped, slam::ScanMatcher::kMinHVoxels,
       heading_only > 0 ? format(", %zu turned their yaw alone on the thin HVoxels (x, y from odometry)", heading_only).c_str() : "",
       score_sum / scored,
-      st.cells, st.hvoxels, params.map.cell_size, o.out.c_str(), truth ? " (truth in white, estimate in magenta)" : "",
+      st.cells, st.hvoxels, params.map.cell_size, o.out.c_str(), o.gt == "source" ? ", truth.txt" : "",
+      truth ? " (truth in white, estimate in magenta)" : "",
       attitude ? "given (the poses of the input or --attitude-from)"
                : imu ? "estimated from the scans with the IMU's gravity as prior"
                      : "estimated from the scans (floor normal + map surfaces)",
+      first_tilt.c_str(),
       chosen_text.empty() ? "" : " Chosen from the first scan:", chosen_text.c_str(),
       imu ? (" IMU: " + std::to_string(imu_samples->size()) + " samples from " + imu_from + ".").c_str() : "", deskewed, n);
   if (old) {
@@ -471,11 +507,15 @@ void add_slam_command(CLI::App& app) {
   auto* cmd = app.add_subcommand("slam", "Estimate planar poses by matching scans on the HMAP, and build the map");
   opts->add_input_options(*cmd, /*poses_help=*/"");
   cmd->add_option("--attitude-from", opts->attitude_from,
-                  "Poses (KITTI or TUM) whose z, roll and pitch are used, like an IMU's");
+                  "Poses (KITTI or TUM) whose z, roll and pitch are used, like an IMU's; 'scans': estimated from the "
+                  "scans even where the input has poses (an RGB-D folder's or a bag's, used otherwise; a depth "
+                  "camera's first frame is levelled by its floor)");
   cmd->add_option("--odometry", opts->odometry,
                   "Odometry poses: the initial guess moves by their increments ('source': the poses of the RGB-D "
                   "folder or bag)");
-  cmd->add_option("--gt", opts->gt, "True poses, drawn in trajectory.png");
+  cmd->add_option("--gt", opts->gt,
+                  "True poses, drawn in trajectory.png; 'source': the RGB-D folder's or bag's poses, also written as "
+                  "OUT/truth.txt (KITTI layout) for hmap eval traj");
   cmd->add_option("--imu", opts->imu,
                   "IMU text file, one sample per line: t gx gy gz ax ay az [qx qy qz qw] (s, rad/s, m/s^2; spaces or "
                   "commas; '#' comments; ns stamps when all exceed 1e14). Needs the scans' stamps (times.txt). A bag's "

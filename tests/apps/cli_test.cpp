@@ -505,6 +505,43 @@ TEST_F(CliTest, SlamAndPvoxReadRgbdFrames) {
   const CmdResult bad = run("slam --kitti " + path("none") + " --odometry source --out " + path("x"));
   EXPECT_EQ(bad.code, 2);
   EXPECT_EQ(lines(bad.out), 1U) << bad.out;
+  EXPECT_NE(bad.out.find("--odometry source needs an RGB-D folder or a bag"), std::string::npos) << bad.out;
+  // So is --gt source.
+  const CmdResult bad_gt = run("slam --kitti " + path("none") + " --gt source --out " + path("x"));
+  EXPECT_EQ(bad_gt.code, 2);
+  EXPECT_EQ(lines(bad_gt.out), 1U) << bad_gt.out;
+  EXPECT_NE(bad_gt.out.find("--gt source needs an RGB-D folder or a bag"), std::string::npos) << bad_gt.out;
+}
+
+TEST_F(CliTest, SlamOnDepthFramesFromTheScansAloneWithTheFolderAsTruth) {
+  // --attitude-from scans: the 7-Scenes poses (KinectFusion's, the ground truth) are not used; the
+  // first frame is levelled by its floor and said so. --gt source writes them as truth.txt.
+  HMAP_REQUIRE_DATA("rgbd_7scenes");
+  const std::string rgbd = (test::data_dir() / "rgbd_7scenes").string();
+  const CmdResult s = run("slam --rgbd " + rgbd + " --scans 6 --attitude-from scans --gt source --out " + path("s"));
+  ASSERT_EQ(s.code, 0) << s.out;
+  EXPECT_NE(s.out.find("estimated from the scans (floor normal + map surfaces). First frame levelled by its floor"),
+            std::string::npos)
+      << s.out;
+  const PoseList truth = read_poses((dir_ / "s" / "truth.txt").string());
+  const PoseList est = read_poses((dir_ / "s" / "poses.txt").string());
+  ASSERT_EQ(truth.size(), 6U);
+  ASSERT_EQ(est.size(), 6U);
+  // The first frame starts where the truth does (x, y, yaw and height), its tilt from its floor:
+  // within 3° of KinectFusion's, whose gravity is the folder's floor over all 50 frames.
+  EXPECT_NEAR((est.front().translation() - truth.front().translation()).norm(), 0.0, 1e-6);
+  for (std::size_t k = 0; k < est.size(); ++k) {
+    const Eigen::Vector3d up_est = est[k].linear().transpose() * Eigen::Vector3d::UnitZ();
+    const Eigen::Vector3d up_true = truth[k].linear().transpose() * Eigen::Vector3d::UnitZ();
+    EXPECT_LT(std::acos(std::min(1.0, up_est.dot(up_true))), 3.0 * std::numbers::pi / 180.0) << k;
+  }
+  // Given, the folder's attitude is the truth's to the bit.
+  const CmdResult g = run("slam --rgbd " + rgbd + " --scans 6 --gt source --out " + path("g"));
+  ASSERT_EQ(g.code, 0) << g.out;
+  EXPECT_NE(g.out.find("given (the poses of the input or --attitude-from)"), std::string::npos) << g.out;
+  const PoseList given = read_poses((dir_ / "g" / "poses.txt").string());
+  ASSERT_EQ(given.size(), 6U);
+  EXPECT_NEAR(given.back().translation().z(), read_poses((dir_ / "g" / "truth.txt").string()).back().translation().z(), 1e-6);
 }
 
 }  // namespace

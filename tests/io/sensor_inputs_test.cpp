@@ -3,7 +3,9 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
+#include <numbers>
 #include <random>
 
 #include "hmap/io/depth_image.hpp"
@@ -209,6 +211,52 @@ TEST(GravityTest, FloorIsTurnedToFaceTheSensorsAboveIt) {
   floor.height = 0.7;
   const std::vector<Eigen::Vector3d> two{Eigen::Vector3d::Zero(), Eigen::Vector3d(0.0, 1.0, 1.0)};
   EXPECT_FALSE(orient_floor_below_sensors(floor, two, Eigen::Vector3d::UnitZ()));
+}
+
+// One depth frame in its optical frame (z forward, y down): a camera 0.9 m above a floor, pitched
+// 25° down and rolled 5°, with a wall 2.5 m ahead holding more points than the floor, and a
+// ceiling 1.5 m above it with more points still. The floor under it is found about -y: its normal
+// is the camera's up, 0.9 m below the camera; the ceiling, above the camera, is not a floor.
+TEST(GravityTest, TheFloorUnderADepthCameraInItsOpticalFrame) {
+  const double deg = std::numbers::pi / 180.0;
+  // R_opt_level: level (x forward, y left, z up) to optical, then the camera's tilt.
+  Eigen::Matrix3d level_to_optical;
+  level_to_optical << 0, -1, 0, 0, 0, -1, 1, 0, 0;
+  const Eigen::Matrix3d tilt = (Eigen::AngleAxisd(5.0 * deg, Eigen::Vector3d::UnitX()) *
+                                Eigen::AngleAxisd(25.0 * deg, Eigen::Vector3d::UnitY()))
+                                   .toRotationMatrix();  // pitched down about the level y, rolled about x
+  const Eigen::Matrix3d R_opt_level = level_to_optical * tilt.transpose();
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> along(0.5, 3.0);
+  std::uniform_real_distribution<double> across(-1.5, 1.5);
+  std::uniform_real_distribution<double> up(-0.9, 1.5);
+  std::normal_distribution<double> noise(0.0, 0.004);
+  PointCloud frame;
+  for (int i = 0; i < 3000; ++i) {  // the floor, level frame z = -0.9
+    frame.push_back((R_opt_level * Eigen::Vector3d(along(rng), across(rng), -0.9 + noise(rng))).cast<float>());
+  }
+  for (int i = 0; i < 5000; ++i) {  // the wall ahead, x = 2.5
+    frame.push_back((R_opt_level * Eigen::Vector3d(2.5 + noise(rng), across(rng), up(rng))).cast<float>());
+  }
+  for (int i = 0; i < 6000; ++i) {  // the ceiling, z = 1.5
+    frame.push_back((R_opt_level * Eigen::Vector3d(along(rng), across(rng), 1.5 + noise(rng))).cast<float>());
+  }
+  const std::optional<SensorFloor> floor = floor_under_sensor(frame, -Eigen::Vector3d::UnitY());
+  ASSERT_TRUE(floor.has_value());
+  const Eigen::Vector3d up_true = R_opt_level * Eigen::Vector3d::UnitZ();
+  EXPECT_LT(std::acos(std::min(1.0, floor->up_sensor.dot(up_true))), 0.3 * deg);
+  EXPECT_NEAR(floor->sensor_height, 0.9, 0.01);
+  EXPECT_GE(floor->inliers, 2900U);
+  EXPECT_EQ(floor->points, frame.size());
+  // The wall and the ceiling alone: no floor (the wall is 65° from -y, the ceiling above).
+  const PointCloud no_floor(frame.begin() + 3000, frame.end());
+  EXPECT_FALSE(floor_under_sensor(no_floor, -Eigen::Vector3d::UnitY()).has_value());
+  // Without below_sensors the ceiling, a plane as near the camera, wins on its points.
+  const std::array<Eigen::Vector3d, 1> camera{Eigen::Vector3d::Zero()};
+  const FloorEstimate either = estimate_floor(frame, -Eigen::Vector3d::UnitY(), FloorParams{}, camera);
+  ASSERT_TRUE(either.found);
+  EXPECT_NEAR(either.height, 1.5, 0.01);
+  EXPECT_FALSE(floor_under_sensor({}, -Eigen::Vector3d::UnitY()).has_value());
 }
 
 TEST_F(SensorInputsTest, SevenScenesAllFramesLoad) {

@@ -2,6 +2,7 @@
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cmath>
 #include <random>
@@ -73,7 +74,11 @@ FloorEstimate estimate_floor(std::span<const Point3f> points_world, const Eigen:
   const auto near_a_sensor = [&](const Eigen::Vector3d& n, double d) {
     if (sensors_world.empty()) return true;
     return std::any_of(sensors_world.begin(), sensors_world.end(),
-                       [&](const Eigen::Vector3d& s) { return std::abs(n.dot(s) - d) <= params.max_sensor_distance; });
+                       [&](const Eigen::Vector3d& s) {
+                         const double above = n.dot(s) - d;
+                         return params.below_sensors ? above > 0.0 && above <= params.max_sensor_distance
+                                                     : std::abs(above) <= params.max_sensor_distance;
+                       });
   };
   const auto count_inliers = [&](const Eigen::Vector3d& n, double d) {
     std::size_t count = 0;
@@ -140,6 +145,23 @@ bool orient_floor_below_sensors(FloorEstimate& floor, std::span<const Eigen::Vec
   floor.up_world = -floor.up_world;
   floor.height = -floor.height;
   return true;
+}
+
+std::optional<SensorFloor> floor_under_sensor(std::span<const Point3f> points_sensor, const Eigen::Vector3d& prior_up_sensor,
+                                              const FloorParams& params) {
+  const std::array<Eigen::Vector3d, 1> sensor{Eigen::Vector3d::Zero()};
+  FloorParams below = params;
+  below.below_sensors = true;
+  const FloorEstimate floor = estimate_floor(points_sensor, prior_up_sensor, below, sensor);
+  // The floor {p : up · p = height} lies below the sensor at the origin: height < 0 (the least
+  // squares refit could in principle carry it through the sensor).
+  if (!floor.found || !(floor.height < 0.0)) return std::nullopt;
+  SensorFloor out;
+  out.up_sensor = floor.up_world;
+  out.sensor_height = -floor.height;
+  out.inliers = floor.inliers;
+  out.points = floor.points;
+  return out;
 }
 
 }  // namespace hmap

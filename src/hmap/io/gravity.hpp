@@ -4,6 +4,7 @@
 // T_map_world comes from the user (an up axis or a rotation matrix) or from the floor plane.
 
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <string_view>
 
@@ -32,6 +33,9 @@ struct FloorParams {
   /// floor under them but a wall or a table top across the room (office1.pcd: a wall 5 m ahead of a
   /// camera that sees no floor). A hand-held camera, a robot or a car roof is within 3 m of its floor.
   double max_sensor_distance = 3.0;
+  /// With sensor positions given, a plane counts only where a sensor stands above it (on the side
+  /// its normal, turned toward the prior up, points to): a ceiling is not taken for a floor.
+  bool below_sensors = false;
 };
 
 struct FloorEstimate {
@@ -58,5 +62,20 @@ struct FloorEstimate {
 /// Returns whether it flipped.
 bool orient_floor_below_sensors(FloorEstimate& floor, std::span<const Eigen::Vector3d> sensors_world,
                                 const Eigen::Vector3d& prior_up_world, double min_tilt = 0.35);
+
+/// The floor under a sensor, from one of its scans in the sensor's own frame: estimate_floor with
+/// the sensor at the origin, above the plane and within params.max_sensor_distance of it
+/// (below_sensors is set). `prior_up_sensor` is the sensor's up as mounted: −y for a
+/// depth camera's optical frame, +z for a spinning LiDAR. Not found (std::nullopt) when no plane
+/// within params.max_tilt of the prior holds params.min_inlier_fraction of the points.
+struct SensorFloor {
+  Eigen::Vector3d up_sensor = Eigen::Vector3d::UnitZ();  ///< the floor's normal, pointing up, unit
+  double sensor_height = 0.0;  ///< [m] the sensor above the floor, along up_sensor
+  std::size_t inliers = 0;
+  std::size_t points = 0;
+};
+[[nodiscard]] std::optional<SensorFloor> floor_under_sensor(std::span<const Point3f> points_sensor,
+                                                            const Eigen::Vector3d& prior_up_sensor,
+                                                            const FloorParams& params = {});
 
 }  // namespace hmap

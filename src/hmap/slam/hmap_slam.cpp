@@ -94,6 +94,13 @@ HmapSlam::HmapSlam(const Params& params, HMap map, const ContinueOptions& where)
   last_ = previous_ = g;
 }
 
+void HmapSlam::start_with_up(const Eigen::Vector3d& up_sensor) {
+  if (!up_sensor.allFinite() || !(up_sensor.norm() > 0.0)) throw Error("the first scan's up vector must be finite and non-zero");
+  const Attitude tilt = tilt_aligning(up_sensor.normalized(), Eigen::Vector3d::UnitZ(), last_attitude_);
+  last_attitude_.roll = tilt.roll;
+  last_attitude_.pitch = tilt.pitch;
+}
+
 PlanarPose HmapSlam::predict() const {
   if (scans_ < 2) return last_;
   return last_ * (inverse(previous_) * last_);

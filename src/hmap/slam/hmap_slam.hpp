@@ -122,6 +122,16 @@ class HmapSlam {
   /// starts at the sensor). Call before the first process().
   void start_at_height(double z) { last_attitude_.z = z; }
 
+  /// The first scan's tilt guess when its attitude is estimated: the roll and pitch that turn
+  /// `up_sensor` (gravity's up in the sensor frame, e.g. a floor normal found in the first scan) to
+  /// the map's +z. Without it the first scan is taken as level, and its floor is looked for within
+  /// slam.max_floor_tilt of that: a depth camera's optical frame (y down) is 90° from it. The
+  /// first scan's own floor then refines the tilt as for any scan. Call before the first process().
+  /// Throws hmap::Error for a zero or non-finite vector.
+  void start_with_up(const Eigen::Vector3d& up_sensor);
+  /// The attitude the first scan starts from (start_at_height, start_with_up), before any scan.
+  [[nodiscard]] const Attitude& first_attitude() const { return last_attitude_; }
+
   /// The body velocity of the last two estimates (their stamps' difference, or the last sweep's
   /// span); zero before two scans or without stamps and times. For ImuAttitudeFilter::set_body_velocity.
   [[nodiscard]] Twist velocity() const;
