@@ -8,6 +8,7 @@ read_poses = _io.read_poses
 open_kitti = _io.open_kitti
 write_ply = _io.write_ply
 write_points_ply = _io.write_points_ply
+floor_under_sensor = _io.floor_under_sensor
 write_pgm = _io.write_pgm
 write_bt = _io.write_bt
 write_png = _io.write_png

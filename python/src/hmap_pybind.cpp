@@ -28,6 +28,7 @@
 #include "hmap/eval/trajectory_metrics.hpp"
 #include "hmap/io/cloud_reader.hpp"
 #include "hmap/io/config.hpp"
+#include "hmap/io/gravity.hpp"
 #include "hmap/io/hmap_file.hpp"
 #include "hmap/io/kitti.hpp"
 #include "hmap/io/octomap_export.hpp"
@@ -1143,6 +1144,14 @@ PYBIND11_MODULE(_hmap, m) {
         if (self.box->slam->scans() > 0) throw py::value_error("start_at_height must come before the first scan");
         self.box->slam->start_at_height(z);
       }, py::arg("z"), "The height [m] the first scan is put at when its attitude is estimated (default 0).")
+      .def("start_with_up", [](PySlam& self, const std::array<double, 3>& up) {
+        const std::scoped_lock lock(self.box->mutex);
+        if (self.box->slam->scans() > 0) throw py::value_error("start_with_up must come before the first scan");
+        self.box->slam->start_with_up(Eigen::Vector3d(up[0], up[1], up[2]));
+      }, py::arg("up"),
+           "The first scan's tilt guess when its attitude is estimated: gravity's up (ux, uy, uz) in its sensor "
+           "frame, e.g. hmap.io.floor_under_sensor(points)['up'] for a depth camera's optical frame (`hmap slam "
+           "--attitude-from scans` on an RGB-D folder). Raises ValueError for a zero or non-finite vector.")
       .def("predict", [](const PySlam& self) {
         const std::scoped_lock lock(self.box->mutex);
         const slam::PlanarPose p = self.box->slam->predict();
@@ -1185,6 +1194,29 @@ PYBIND11_MODULE(_hmap, m) {
          "`hmap export --ply`: each HVoxel as a box coloured by height (binary PLY, MeshLab, CloudCompare, Open3D); "
          "points=True: the recovered points instead, every z_step [m] (default: the cell size) up each HVoxel "
          "(`--points`). Written atomically; equal maps give equal files.");
+  io.def("floor_under_sensor", [](const py::handle& points, const std::array<double, 3>& prior_up) -> py::object {
+    const py::array arr = checked_points(points, "points");
+    PointCloud storage;
+    const std::span<const Point3f> pts = points_of(arr, storage, NonFinite::kDrop, "points");
+    const Eigen::Vector3d prior(prior_up[0], prior_up[1], prior_up[2]);
+    if (!prior.allFinite() || !(prior.norm() > 0.0)) throw py::value_error("prior_up must be finite and non-zero");
+    std::optional<SensorFloor> floor;
+    {
+      py::gil_scoped_release release;
+      floor = floor_under_sensor(pts, prior);
+    }
+    if (!floor) return py::none();
+    py::dict d;
+    d["up"] = py::make_tuple(floor->up_sensor.x(), floor->up_sensor.y(), floor->up_sensor.z());
+    d["sensor_height"] = floor->sensor_height;
+    d["inliers"] = floor->inliers;
+    d["points"] = floor->points;
+    return d;
+  }, py::arg("points"), py::arg("prior_up") = std::array<double, 3>{0.0, -1.0, 0.0},
+         "The floor under a sensor from one (N, 3) scan in its own frame (non-finite rows dropped): {'up' (its "
+         "normal, unit, toward the sensor), 'sensor_height' [m], 'inliers', 'points'}, or None when no plane within "
+         "34° of prior_up lies within 3 m below the sensor. prior_up: -y (the default) for a depth camera's "
+         "optical frame, +z for a LiDAR.");
   io.def("write_points_ply", [](const std::filesystem::path& path, const py::handle& points) {
     const py::array arr = checked_points(points, "points");
     PointCloud storage;

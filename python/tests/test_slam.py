@@ -263,3 +263,30 @@ def test_slam_closes_a_loop_as_the_cli_does(tmp_path):
     off = hmap.slam.Slam(params)
     with pytest.raises(ValueError, match="loop closure is off"):
         off.close_loops(read_scan)
+
+
+def test_a_depth_frame_is_levelled_by_the_floor_under_it(tmp_path):
+    """The first 7-Scenes frames: floor_under_sensor about -y and Slam.start_with_up give the poses of
+    `hmap slam --rgbd --attitude-from scans` (the frames' poses, the ground truth, left alone)."""
+    data = require_data("rgbd_7scenes")
+    cli = cli_or_skip()
+    out = tmp_path / "O"
+    subprocess.run([str(cli), "slam", "--rgbd", str(data), "--scans", "3", "--attitude-from", "scans",
+                    "--no-loop-closure", "--out", str(out)], check=True, capture_output=True)
+    cli_poses = np.loadtxt(out / "poses.txt").reshape(-1, 3, 4)
+    frames = [points for points, _, _ in hmap.io.rgbd_sequence(data, max_frames=3)]
+    floor = hmap.io.floor_under_sensor(frames[0])
+    assert floor is not None and 0.5 < floor["sensor_height"] < 1.0 and floor["inliers"] > 10000
+    assert abs(np.linalg.norm(floor["up"]) - 1.0) < 1e-9
+    assert hmap.io.floor_under_sensor(frames[0], prior_up=(0.0, 0.0, 1.0)) is None  # +z: the camera's forward
+    params = hmap.params_for_scan(frames[0])["params"]
+    params.set("slam.loop_closure", 0)
+    slam = hmap.slam.Slam(params)
+    slam.start_with_up(floor["up"])
+    for points in frames:
+        slam.process(points)
+    np.testing.assert_allclose(slam.poses[:, :3, :], cli_poses, rtol=0, atol=1e-9)
+    with pytest.raises(ValueError, match="before the first scan"):
+        slam.start_with_up((0.0, 0.0, 1.0))
+    with pytest.raises(ValueError, match="finite and non-zero"):
+        hmap.slam.Slam(params).start_with_up((0.0, 0.0, 0.0))
