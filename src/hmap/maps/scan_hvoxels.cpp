@@ -206,25 +206,25 @@ void ScanHVoxelizer::cluster_heights(ScanHVoxels& out) {
         }
         std::copy_n(sorted.begin(), n, z);
       } else {
-      // A spinning sensor lists a cell's points ring by ring, often from the top ring down: the
-      // heights come nearly in descending order, insertion sort's worst case. Reversed first,
-      // they come nearly ascending, its best.
-      // Insertion sort costs one move per inversion, and ring order leaves few: it beats
-      // std::sort even for hundreds of points, until the moves pass a budget of 8 per point.
-      if (z_end - z > 2 && *z > *(z_end - 1)) std::reverse(z, z_end);
-      const auto budget = static_cast<std::ptrdiff_t>(8 * (z_end - z));
-      std::ptrdiff_t moves = 0;
-      for (float* a = z + 1; a < z_end; ++a) {
-        const float value = *a;
-        float* b = a;
-        for (; b > z && *(b - 1) > value; --b) *b = *(b - 1);
-        *b = value;
-        moves += a - b;
-        if (moves > budget) {
-          std::sort(z, z_end);
-          break;
+        // A spinning sensor lists a cell's points ring by ring, often from the top ring down: the
+        // heights come nearly in descending order, insertion sort's worst case. Reversed first,
+        // they come nearly ascending, its best.
+        // Insertion sort costs one move per inversion, and ring order leaves few: it beats
+        // std::sort even for hundreds of points, until the moves pass a budget of 8 per point.
+        if (z_end - z > 2 && *z > *(z_end - 1)) std::reverse(z, z_end);
+        const auto budget = static_cast<std::ptrdiff_t>(8 * (z_end - z));
+        std::ptrdiff_t moves = 0;
+        for (float* a = z + 1; a < z_end; ++a) {
+          const float value = *a;
+          float* b = a;
+          for (; b > z && *(b - 1) > value; --b) *b = *(b - 1);
+          *b = value;
+          moves += a - b;
+          if (moves > budget) {
+            std::sort(z, z_end);
+            break;
+          }
         }
-      }
       }
       std::uint32_t clusters = 1;  // a new segment starts where the gap exceeds the threshold
       for (const float* it = z + 1; it < z_end; ++it) clusters += *it - *(it - 1) > gap ? 1U : 0U;
