@@ -143,9 +143,10 @@ class FreeSpaceTracer {
     std::vector<FreeCell> cells;                // [0, used_cells) hold this trace's free cells
     std::size_t used_cells = 0;                 // (kept allocated across scans: no re-construction)
     std::vector<std::uint32_t> targets;         // scan cells whose rays this side casts
+    std::vector<std::uint32_t> shared_slots;    // its cells on the sensor's row and column, folded
     std::vector<Eigen::Vector2f> ray_dz;        // (z_min, z_max) − z_s of the current target
     std::size_t rays = 0;
-    void reset();
+    void reset();  // the last trace's cells and rays (not the targets)
     void trace(const ScanHVoxels& scan, const MapParams& params);
     FreeCell& cell_at(std::size_t window_index, const CellKey& key) {
       const std::uint32_t slot = slot_of_window[window_index];
