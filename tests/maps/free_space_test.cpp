@@ -1,4 +1,5 @@
 #include "hmap/maps/free_space.hpp"
+#include "hmap/maps/ray_trace.hpp"
 
 #include <gtest/gtest.h>
 
@@ -260,6 +261,42 @@ TEST(FreeSpaceTest, LowDensityHVoxelsCastNoRay) {
   tracer.trace(scan);
   EXPECT_EQ(tracer.rays(), 0U);
   EXPECT_TRUE(tracer.cells().empty());
+}
+
+// The four quadrants share the sensor's row and column: rays along them, and shallow rays that
+// run along them for a few cells before stepping into the next quadrant, leave cells there in two
+// quadrants, which are folded into one. Each cell is listed once, with every ray that crossed it
+// (counted by traverse_2d), trace after trace (the quadrants clear themselves).
+TEST(FreeSpaceTest, RaysAlongTheSensorsRowAndColumnAreFoldedOnce) {
+  const MapParams p = params();
+  ScanHVoxels scan;
+  scan.origin_map = {0.1, 0.1, 1.0};  // the centre of cell (0, 0)
+  scan.window = {{0, 0}, static_cast<std::int32_t>(std::ceil(p.max_range / p.cell_size)) + 1, 0};
+  scan.window.width = 2 * scan.window.half + 1;
+  std::map<CellKey, float, KeyLess> expected;
+  for (const CellKey key : {CellKey{10, 0}, CellKey{-10, 0}, CellKey{0, 10}, CellKey{0, -10}, CellKey{10, -1},
+                            CellKey{-10, -1}, CellKey{-1, 10}, CellKey{-1, -10}, CellKey{-8, 1}}) {
+    scan.cells.push_back({key, static_cast<std::uint32_t>(scan.hvoxels.size()), 1});
+    scan.hvoxels.push_back({0.9F, 1.1F, 10.0F, 1.0F});  // level with the sensor: one band per cell
+    traverse_2d(scan.origin_map.x(), scan.origin_map.y(), (key.i + 0.5) * p.cell_size, (key.j + 0.5) * p.cell_size,
+                p.cell_size, [&](const CellKey& k, double, double) {
+                  if (!(k == key)) expected[k] += 1.0F;  // the HVoxel's own cell is not free
+                  return true;
+                });
+  }
+  FreeSpaceTracer tracer(p);
+  for (int trace = 0; trace < 2; ++trace) {
+    tracer.trace(scan);
+    EXPECT_EQ(tracer.rays(), 9U);
+    std::map<CellKey, float, KeyLess> rays_of;
+    for (const FreeCell* fc : tracer.cells()) {
+      ASSERT_EQ(fc->n, 1U) << fc->key.i << "," << fc->key.j;
+      ASSERT_TRUE(rays_of.emplace(fc->key, fc->rays[0]).second) << "listed twice: " << fc->key.i << "," << fc->key.j;
+    }
+    EXPECT_EQ(rays_of, expected);
+    EXPECT_EQ(rays_of.at({0, 0}), 9.0F);
+    EXPECT_EQ(rays_of.at({-3, 0}), 3.0F);  // the rays to (-10, 0), (-10, -1) and (-8, 1)
+  }
 }
 
 }  // namespace free_space_test
