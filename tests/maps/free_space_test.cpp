@@ -10,6 +10,8 @@
 #include <limits>
 #include <map>
 #include <random>
+#include <utility>
+#include <vector>
 
 namespace hmap {
 namespace free_space_test {
@@ -296,6 +298,43 @@ TEST(FreeSpaceTest, RaysAlongTheSensorsRowAndColumnAreFoldedOnce) {
     EXPECT_EQ(rays_of, expected);
     EXPECT_EQ(rays_of.at({0, 0}), 9.0F);
     EXPECT_EQ(rays_of.at({-3, 0}), 3.0F);  // the rays to (-10, 0), (-10, -1) and (-8, 1)
+  }
+}
+
+TEST(FreeSpaceTest, WorkAlongsideRunsOnceAndEveryQuadrantClearsItselfWhateverTheOrder) {
+  // Three traces, each with a different quadrant carrying most of the rays, so the quadrants are
+  // taken in a different order each time: every trace lists exactly its own rays' cells (none left
+  // over from the last trace) and runs the work alongside once.
+  const MapParams p = params();
+  FreeSpaceTracer tracer(p);
+  const std::array<CellKey, 3> heavy{CellKey{12, 9}, CellKey{-12, 7}, CellKey{5, -12}};
+  for (std::size_t trace = 0; trace < heavy.size(); ++trace) {
+    ScanHVoxels scan;
+    scan.origin_map = {0.1, 0.1, 1.0};  // the centre of cell (0, 0)
+    scan.window = {{0, 0}, static_cast<std::int32_t>(std::ceil(p.max_range / p.cell_size)) + 1, 0};
+    scan.window.width = 2 * scan.window.half + 1;
+    std::map<CellKey, float, KeyLess> expected;
+    std::vector<std::pair<CellKey, std::uint32_t>> targets{{heavy[trace], 6}, {{3, 2}, 1}, {{-2, 3}, 1}, {{-3, -2}, 1},
+                                                           {{2, -3}, 1}};
+    for (const auto& [key, n] : targets) {
+      scan.cells.push_back({key, static_cast<std::uint32_t>(scan.hvoxels.size()), n});
+      for (std::uint32_t k = 0; k < n; ++k) scan.hvoxels.push_back({0.9F, 1.1F, 10.0F, 1.0F});
+      traverse_2d(scan.origin_map.x(), scan.origin_map.y(), (key.i + 0.5) * p.cell_size, (key.j + 0.5) * p.cell_size,
+                  p.cell_size, [&](const CellKey& c, double, double) {
+                    if (!(c == key)) expected[c] += static_cast<float>(n);
+                    return true;
+                  });
+    }
+    int alongside = 0;
+    tracer.trace(scan, [&] { ++alongside; });
+    EXPECT_EQ(alongside, 1);
+    EXPECT_EQ(tracer.rays(), 10U);
+    std::map<CellKey, float, KeyLess> rays_of;
+    for (const FreeCell* fc : tracer.cells()) {
+      ASSERT_EQ(fc->n, 1U) << fc->key.i << "," << fc->key.j;
+      ASSERT_TRUE(rays_of.emplace(fc->key, fc->rays[0]).second) << "listed twice: " << fc->key.i << "," << fc->key.j;
+    }
+    EXPECT_EQ(rays_of, expected) << "trace " << trace;
   }
 }
 

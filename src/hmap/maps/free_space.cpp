@@ -1,6 +1,7 @@
 #include "hmap/maps/free_space.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -99,18 +100,39 @@ void FreeSpaceTracer::trace(const ScanHVoxels& scan, const std::function<void()>
   // A ray's cells are monotonic in i and in j, so rays to the quadrant (i >= ci, j >= cj) of the
   // sensor's cell (ci, cj) stay in it, and so on: the quadrants share only the sensor's row and
   // column of cells.
-  for (auto& q : quadrants_) q.targets.clear();
+  for (auto& q : quadrants_) {
+    q.targets.clear();
+    q.work = 0;
+  }
   const CellKey c = scan.window.center;
   for (std::uint32_t k = 0; k < scan.cells.size(); ++k) {
-    const CellKey& key = scan.cells[k].key;
-    quadrants_[(key.i >= c.i ? 0 : 1) + (key.j >= c.j ? 0 : 2)].targets.push_back(k);
+    const ScanCell& cell = scan.cells[k];
+    Accumulator& q = quadrants_[(cell.key.i >= c.i ? 0 : 1) + (cell.key.j >= c.j ? 0 : 2)];
+    q.targets.push_back(k);
+    // A ray visits |di| + |dj| + 1 cells.
+    q.work += std::uint64_t{cell.count} *
+              (1 + std::abs(std::int64_t{cell.key.i} - c.i) + std::abs(std::int64_t{cell.key.j} - c.j));
   }
-  // Each quadrant clears what the last trace left in it on its own task.
-  tbb::parallel_invoke([&] { quadrants_[0].trace(scan, params_); }, [&] { quadrants_[1].trace(scan, params_); },
-                       [&] { quadrants_[2].trace(scan, params_); }, [&] { quadrants_[3].trace(scan, params_); },
-                       [&] {
-                         if (alongside) alongside();
-                       });
+  // Five independent jobs: the map work alongside and the four quadrants, which differ up to
+  // threefold in cost (a wall on one side). They are taken in a fixed order from a shared counter
+  // by as many workers as there are threads, the work alongside first and then the quadrants
+  // longest first (by HVoxels × cells from the sensor), so that on two cores the
+  // short ones fill in behind the long ones. The order changes only which thread runs a job: each
+  // job's result is the same.
+  std::array<std::size_t, 4> order{0, 1, 2, 3};
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::size_t a, std::size_t b) { return quadrants_[a].work > quadrants_[b].work; });
+  std::atomic<std::size_t> next_job{0};
+  const auto worker = [&] {
+    for (std::size_t job = next_job++; job < 5; job = next_job++) {
+      if (job == 0) {
+        if (alongside) alongside();
+      } else {
+        quadrants_[order[job - 1]].trace(scan, params_);  // clears what the last trace left in it
+      }
+    }
+  };
+  tbb::parallel_invoke(worker, worker, worker, worker, worker);
   // Fold the shared row and column into the first quadrant. Their cells are found through the
   // window, not by reading every free cell (two passes over megabytes), and folded in each
   // quadrant's order of making them, as a pass over its cells would.
