@@ -316,7 +316,9 @@ TEST(FreeSpaceTest, WorkAlongsideRunsOnceAndEveryQuadrantClearsItselfWhateverThe
     std::map<CellKey, float, KeyLess> expected;
     std::vector<std::pair<CellKey, std::uint32_t>> targets{{heavy[trace], 6}, {{3, 2}, 1}, {{-2, 3}, 1}, {{-3, -2}, 1},
                                                            {{2, -3}, 1}};
-    for (const auto& [key, n] : targets) {
+    for (const auto& target : targets) {
+      const CellKey key = target.first;  // not a structured binding: clang cannot capture one
+      const std::uint32_t n = target.second;
       scan.cells.push_back({key, static_cast<std::uint32_t>(scan.hvoxels.size()), n});
       for (std::uint32_t k = 0; k < n; ++k) scan.hvoxels.push_back({0.9F, 1.1F, 10.0F, 1.0F});
       traverse_2d(scan.origin_map.x(), scan.origin_map.y(), (key.i + 0.5) * p.cell_size, (key.j + 0.5) * p.cell_size,
