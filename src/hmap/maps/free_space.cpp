@@ -100,17 +100,15 @@ void FreeSpaceTracer::trace(const ScanHVoxels& scan, const std::function<void()>
   // A ray's cells are monotonic in i and in j, so rays to the quadrant (i >= ci, j >= cj) of the
   // sensor's cell (ci, cj) stay in it, and so on: the quadrants share only the sensor's row and
   // column of cells.
-  for (auto& q : quadrants_) {
-    q.targets.clear();
-    q.work = 0;
-  }
+  for (auto& q : quadrants_) q.targets.clear();
+  std::array<std::uint64_t, 4> work{};  // HVoxels × cells from the sensor: each quadrant's cost to trace
   const CellKey c = scan.window.center;
   for (std::uint32_t k = 0; k < scan.cells.size(); ++k) {
     const ScanCell& cell = scan.cells[k];
-    Accumulator& q = quadrants_[(cell.key.i >= c.i ? 0 : 1) + (cell.key.j >= c.j ? 0 : 2)];
-    q.targets.push_back(k);
+    const std::size_t q = (cell.key.i >= c.i ? 0 : 1) + (cell.key.j >= c.j ? 0 : 2);
+    quadrants_[q].targets.push_back(k);
     // A ray visits |di| + |dj| + 1 cells.
-    q.work += std::uint64_t{cell.count} *
+    work[q] += std::uint64_t{cell.count} *
               (1 + std::abs(std::int64_t{cell.key.i} - c.i) + std::abs(std::int64_t{cell.key.j} - c.j));
   }
   // Five independent jobs: the map work alongside and the four quadrants, which differ up to
@@ -121,7 +119,7 @@ void FreeSpaceTracer::trace(const ScanHVoxels& scan, const std::function<void()>
   // job's result is the same.
   std::array<std::size_t, 4> order{0, 1, 2, 3};
   std::stable_sort(order.begin(), order.end(),
-                   [&](std::size_t a, std::size_t b) { return quadrants_[a].work > quadrants_[b].work; });
+                   [&](std::size_t a, std::size_t b) { return work[a] > work[b]; });
   std::atomic<std::size_t> next_job{0};
   const auto worker = [&] {
     for (std::size_t job = next_job++; job < 5; job = next_job++) {

@@ -146,7 +146,6 @@ class FreeSpaceTracer {
     std::vector<std::uint32_t> shared_slots;    // its cells on the sensor's row and column, folded
     std::vector<Eigen::Vector2f> ray_dz;        // (z_min, z_max) − z_s of the current target
     std::size_t rays = 0;
-    std::uint64_t work = 0;                     // HVoxels × cells from the sensor: the cost to trace
     void reset();  // the last trace's cells and rays (not the targets)
     void trace(const ScanHVoxels& scan, const MapParams& params);
     FreeCell& cell_at(std::size_t window_index, const CellKey& key) {
