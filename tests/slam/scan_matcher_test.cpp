@@ -435,5 +435,73 @@ TEST(ScanMatcher, OdometryPriorDoesNotHoldAWellConstrainedMatch) {
   EXPECT_FALSE(r.degenerate);
 }
 
+TEST(ScanMatcher, PredictionIsKeptWhereTheCoarseSearchMovesAlongWhatTheScanDoesNotConstrain) {
+  // The corridor of the test above with its one post moved 0.5 m along +x, but no odometry: the
+  // guess is constant velocity (the truth here). The match scores under the reference set by the
+  // unchanged scan, so the coarse search runs. Its best pose aligns the post: x jumps by −0.5 m for
+  // one HVoxel's gain, while as long a move along y (the walls) costs far more. kWhenFailed takes
+  // the jump; kWhenFailedKeepPrediction keeps the minimum found from the guess.
+  Params p = outdoor_preset();  // 0.25 m cells
+  p.slam.coarse_trigger_ratio = 1.0;  // any score under the reference's searches
+  std::vector<Eigen::Vector2d> map_xy;
+  std::vector<Eigen::Vector2d> scan_xy;
+  for (int i = -60; i < 60; ++i) {
+    const double x = (i + 0.5) * 0.25;
+    for (const double y : {2.125, -2.125}) {
+      map_xy.emplace_back(x, y);
+      if (i >= -40 && i < 40) scan_xy.emplace_back(x, y);
+    }
+  }
+  std::vector<Eigen::Vector2d> unchanged_xy = scan_xy;
+  map_xy.emplace_back(3.125, 0.875);
+  unchanged_xy.emplace_back(3.125, 0.875);
+  scan_xy.emplace_back(3.625, 0.875);
+  Mapper mapper(p);
+  (void)mapper.integrate(posts_at(map_xy), sensor_pose({}));
+  const Pose level = compose(PlanarPose{}, Attitude{kSensorHeight, 0.0, 0.0});
+  ScanHVoxels unchanged;
+  ScanHVoxelizer(p.map).build(posts_at(unchanged_xy), level, unchanged);
+  ScanHVoxels moved;
+  ScanHVoxelizer(p.map).build(posts_at(scan_xy), level, moved);
+
+  const auto after_reference = [&](CoarseSearch mode) {
+    ScanMatcher matcher(p);
+    const MatchResult reference = matcher.match(unchanged, mapper.map(), PlanarPose{});
+    EXPECT_FALSE(reference.coarse_search);
+    return matcher.match(moved, mapper.map(), PlanarPose{}, mode);
+  };
+  const MatchResult jumped = after_reference(CoarseSearch::kWhenFailed);
+  EXPECT_TRUE(jumped.coarse_search);
+  EXPECT_FALSE(jumped.coarse_rejected);
+  EXPECT_NEAR(jumped.pose.x, -0.5, 0.1);  // the premise: the lower cost is the jump
+
+  const MatchResult kept = after_reference(CoarseSearch::kWhenFailedKeepPrediction);
+  EXPECT_TRUE(kept.coarse_search);
+  EXPECT_TRUE(kept.coarse_rejected);
+  EXPECT_NEAR(kept.pose.x, 0.0, 0.05);
+  EXPECT_NEAR(kept.pose.y, 0.0, 0.02);
+  EXPECT_LT(yaw_error(kept.pose.yaw, 0.0), 0.1 * kDeg);
+  EXPECT_GT(kept.final_cost, jumped.final_cost);  // kept although it costs more
+  EXPECT_FALSE(kept.observable[0]);               // x is what the scan does not constrain
+}
+
+TEST(ScanMatcher, PredictionGivesWayToACoarseSearchTheWholeScanSupports) {
+  // The yard constrains every direction: a guess 0.4 m and 5° off (outside Gauss-Newton's basin)
+  // is corrected by the coarse search in kWhenFailedKeepPrediction as in kWhenFailed.
+  const sim::Scene scene = yard_builder().build();
+  const Params p = yard_params();
+  const PlanarPose truth{0.5, 0.3, 2.0 * kDeg};
+  TwoScans s = two_scans(scene, p, {PlanarPose{}}, truth);
+  const PlanarPose far{truth.x - 0.4, truth.y + 0.1, truth.yaw + 5.0 * kDeg};
+  for (const CoarseSearch mode : {CoarseSearch::kWhenFailed, CoarseSearch::kWhenFailedKeepPrediction}) {
+    ScanMatcher matcher(p);
+    (void)matcher.match(s.scan_level, s.map, truth);  // a good match sets the reference score
+    const MatchResult found = matcher.match(s.scan_level, s.map, far, mode);
+    EXPECT_TRUE(found.coarse_search);
+    EXPECT_FALSE(found.coarse_rejected);
+    EXPECT_TRUE(recovered(found, truth)) << found.pose.x << " " << found.pose.y << " " << found.pose.yaw;
+  }
+}
+
 }  // namespace
 }  // namespace hmap::slam

@@ -284,6 +284,33 @@ void ScanMatcher::assess_degeneracy(MatchResult& result) {
   }
 }
 
+bool ScanMatcher::supports_move(const MatchResult& from, MatchResult& to) {
+  // The move in (m, m, rad·RMS radius), the space assess_degeneracy measures curvature in.
+  const Eigen::Vector3d move(to.pose.x - from.pose.x, to.pose.y - from.pose.y,
+                             std::remainder(to.pose.yaw - from.pose.yaw, 2.0 * std::numbers::pi) * rms_radius_);
+  const double length = move.norm();
+  // Within a cell both are the same minimum at the grain of the map: the lower cost stands.
+  if (!(length >= params_.map.cell_size)) return true;
+  // What the cost rises by when the pose moves as far along the scan's best-constrained direction
+  // at `to`, against what the move gained: along a direction the scan hardly constrains, a gain
+  // of a few percent is the grain of eq. (5), not evidence.
+  assess_degeneracy(to);
+  Eigen::Index strongest = 0;
+  to.curvature.maxCoeff(&strongest);
+  const Eigen::Vector3d e = length * to.directions.col(strongest);
+  const std::size_t stride = std::max<std::size_t>(1, candidates_.size() / kCurvatureHVoxels);
+  const PlanarPose& p = to.pose;
+  std::array<PlanarPose, 4> probes{p, from.pose, PlanarPose{p.x + e(0), p.y + e(1), p.yaw + e(2) / rms_radius_},
+                                   PlanarPose{p.x - e(0), p.y - e(1), p.yaw - e(2) / rms_radius_}};
+  std::array<double, 4> f{};
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, probes.size(), 1), [&](const auto& range) {
+    for (std::size_t i = range.begin(); i != range.end(); ++i) f[i] = cost_only(probes[i], stride);
+  });
+  const double gain = f[1] - f[0];
+  const double rise = 0.5 * (f[2] + f[3]) - f[0];
+  return gain >= params_.slam.degeneracy_ratio * rise;
+}
+
 MatchResult ScanMatcher::gauss_newton(const PlanarPose& guess) {
   MatchResult result;
   const auto n = static_cast<double>(candidates_.size());
@@ -465,6 +492,7 @@ MatchResult ScanMatcher::match(const ScanHVoxels& scan_level, const HMap& map, c
   if (failed && ratio > 0.0 && !yaw_only_) {
     const int iterations = result.iterations;
     const double initial_cost = result.initial_cost;
+    const MatchResult from_guess = result;
     std::vector<PlanarPose> starts = coarse_search(guess);
     if (alternative) {
       for (const PlanarPose& start : coarse_search(*alternative)) starts.push_back(start);
@@ -472,6 +500,12 @@ MatchResult ScanMatcher::match(const ScanHVoxels& scan_level, const HMap& map, c
     for (const PlanarPose& start : starts) {
       MatchResult retry = gauss_newton(start);
       if (retry.final_cost + retry.prior_cost < result.final_cost + result.prior_cost) result = retry;
+    }
+    if (search == CoarseSearch::kWhenFailedKeepPrediction && !supports_move(from_guess, result)) {
+      const int searched = result.iterations;  // the pick's steps, counted though it is not taken
+      result = from_guess;
+      result.iterations = searched;
+      result.coarse_rejected = true;
     }
     result.iterations = iterations + result.iterations;
     result.initial_cost = initial_cost;

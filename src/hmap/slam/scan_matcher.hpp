@@ -67,6 +67,9 @@ struct MatchResult {
   std::array<bool, 3> observable{true, true, true};
   bool degenerate = false;         ///< smallest / largest curvature < slam.degeneracy_ratio
   bool coarse_search = false;      ///< the coarse search ran (Gauss-Newton looked failed)
+  /// The coarse search found a lower cost elsewhere, but the move there was along a direction the
+  /// scan hardly constrains (CoarseSearch::kWhenFailedKeepPrediction): the guess's minimum was kept.
+  bool coarse_rejected = false;
   /// Too few HVoxels were tall enough and the thin ones turned the yaw alone (ThinFallback::kHeading):
   /// x and y are the guess's.
   bool heading_only = false;
@@ -79,6 +82,14 @@ struct MatchResult {
 enum class CoarseSearch : std::uint8_t {
   kWhenFailed,  ///< Gauss-Newton did not converge or scored under the trigger (slam.coarse_trigger_ratio)
   kAlways,      ///< also after a converged match: for a guess with no motion prior (the second scan)
+  /// As kWhenFailed, for a guess that predicts the motion (constant velocity, no odometry): the
+  /// search's pose replaces the minimum found from the guess only when the scan supports the move.
+  /// A move of a cell or more (yaw counted at the HVoxels' RMS radius) must lower the cost by at
+  /// least slam.degeneracy_ratio times what the cost rises when the pose moves as far along the
+  /// scan's best-constrained direction. On a ramp between walls or in
+  /// a corridor, minima half a metre apart along it differ by 1-3 %, and the search's pick among
+  /// them was the wrong one in 25 of 29 cases on the simulated routes (docs/SLAM.md).
+  kWhenFailedKeepPrediction,
 };
 
 /// What a scan is matched with when fewer than ScanMatcher::kMinHVoxels of its HVoxels are at
@@ -147,6 +158,11 @@ class ScanMatcher {
   };
 
   void select(const ScanHVoxels& scan_level, float min_match);
+  /// Whether eq. (5) supports moving from `from` (Gauss-Newton from the guess) to `to` (the coarse
+  /// search's pick): a move under a cell always; else the gain is at least slam.degeneracy_ratio of
+  /// the rise over as long a move along `to`'s best-constrained direction (then `to`'s curvature
+  /// is filled, assess_degeneracy).
+  bool supports_move(const MatchResult& from, MatchResult& to);
   Linearization linearize(const PlanarPose& pose, std::size_t stride);
   /// The cost of linearize(pose, stride) (same terms, same order), without touching the cached
   /// F values: poses can be scored in parallel.
