@@ -248,12 +248,10 @@ void ScanMatcher::assess_degeneracy(MatchResult& result) {
   const double h = params_.map.cell_size;
   const Eigen::Vector3d d(1.0, 1.0, 1.0 / rms_radius_);
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(d.asDiagonal() * result.hessian * d.asDiagonal());
-  const std::size_t stride = std::max<std::size_t>(1, candidates_.size() / kCurvatureHVoxels);
+  const std::size_t stride = curvature_stride();
   std::size_t used = 0;
   for (std::size_t k = 0; k < candidates_.size(); k += stride) ++used;
-  // The cost at the pose and one step either way along each eigenvector: seven independent sums
-  // over the same thinned HVoxels, on the cores. cost_only leaves the cached F values alone, so the
-  // sums do not race, and each is the same single-chunk sum linearize would make.
+  // The cost at the pose and one step either way along each eigenvector.
   const PlanarPose& p = result.pose;
   std::array<PlanarPose, 7> probes;
   probes[0] = p;
@@ -263,9 +261,7 @@ void ScanMatcher::assess_degeneracy(MatchResult& result) {
     probes[static_cast<std::size_t>(2 + 2 * k)] = {p.x - step(0), p.y - step(1), p.yaw - step(2)};
   }
   std::array<double, 7> f{};
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, probes.size(), 1), [&](const auto& range) {
-    for (std::size_t i = range.begin(); i != range.end(); ++i) f[i] = cost_only(probes[i], stride);
-  });
+  probe_costs(probes, f);
   for (int k = 0; k < 3; ++k) {
     const double fp = f[static_cast<std::size_t>(1 + 2 * k)];
     const double fm = f[static_cast<std::size_t>(2 + 2 * k)];
@@ -284,7 +280,21 @@ void ScanMatcher::assess_degeneracy(MatchResult& result) {
   }
 }
 
+std::size_t ScanMatcher::curvature_stride() const {
+  return std::max<std::size_t>(1, candidates_.size() / kCurvatureHVoxels);
+}
+
+void ScanMatcher::probe_costs(std::span<const PlanarPose> poses, std::span<double> costs) const {
+  // Independent sums over the same thinned HVoxels, on the cores. cost_only leaves the cached F
+  // values alone, so the sums do not race, and each is the same single-chunk sum linearize would make.
+  const std::size_t stride = curvature_stride();
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, poses.size(), 1), [&](const auto& range) {
+    for (std::size_t i = range.begin(); i != range.end(); ++i) costs[i] = cost_only(poses[i], stride);
+  });
+}
+
 bool ScanMatcher::supports_move(const MatchResult& from, MatchResult& to) {
+  assess_degeneracy(to);
   // The move in (m, m, rad·RMS radius), the space assess_degeneracy measures curvature in.
   const Eigen::Vector3d move(to.pose.x - from.pose.x, to.pose.y - from.pose.y,
                              std::remainder(to.pose.yaw - from.pose.yaw, 2.0 * std::numbers::pi) * rms_radius_);
@@ -294,18 +304,14 @@ bool ScanMatcher::supports_move(const MatchResult& from, MatchResult& to) {
   // What the cost rises by when the pose moves as far along the scan's best-constrained direction
   // at `to`, against what the move gained: along a direction the scan hardly constrains, a gain
   // of a few percent is the grain of eq. (5), not evidence.
-  assess_degeneracy(to);
   Eigen::Index strongest = 0;
   to.curvature.maxCoeff(&strongest);
   const Eigen::Vector3d e = length * to.directions.col(strongest);
-  const std::size_t stride = std::max<std::size_t>(1, candidates_.size() / kCurvatureHVoxels);
   const PlanarPose& p = to.pose;
-  std::array<PlanarPose, 4> probes{p, from.pose, PlanarPose{p.x + e(0), p.y + e(1), p.yaw + e(2) / rms_radius_},
-                                   PlanarPose{p.x - e(0), p.y - e(1), p.yaw - e(2) / rms_radius_}};
+  const std::array<PlanarPose, 4> probes{p, from.pose, PlanarPose{p.x + e(0), p.y + e(1), p.yaw + e(2) / rms_radius_},
+                                         PlanarPose{p.x - e(0), p.y - e(1), p.yaw - e(2) / rms_radius_}};
   std::array<double, 4> f{};
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, probes.size(), 1), [&](const auto& range) {
-    for (std::size_t i = range.begin(); i != range.end(); ++i) f[i] = cost_only(probes[i], stride);
-  });
+  probe_costs(probes, f);
   const double gain = f[1] - f[0];
   const double rise = 0.5 * (f[2] + f[3]) - f[0];
   return gain >= params_.slam.degeneracy_ratio * rise;
@@ -484,6 +490,7 @@ MatchResult ScanMatcher::match(const ScanHVoxels& scan_level, const HMap& map, c
   }
 
   MatchResult result = gauss_newton(guess);
+  bool assessed = false;  // result's degeneracy already assessed
   // Failure: Gauss-Newton ran out of iterations, or the match is much worse than the recent ones.
   const double ratio = params_.slam.coarse_trigger_ratio;
   const bool failed = search == CoarseSearch::kAlways || !result.converged ||
@@ -501,17 +508,21 @@ MatchResult ScanMatcher::match(const ScanHVoxels& scan_level, const HMap& map, c
       MatchResult retry = gauss_newton(start);
       if (retry.final_cost + retry.prior_cost < result.final_cost + result.prior_cost) result = retry;
     }
-    if (search == CoarseSearch::kWhenFailedKeepPrediction && !supports_move(from_guess, result)) {
-      const int searched = result.iterations;  // the pick's steps, counted though it is not taken
-      result = from_guess;
-      result.iterations = searched;
-      result.coarse_rejected = true;
+    if (search == CoarseSearch::kWhenFailedKeepPrediction) {
+      assessed = true;  // supports_move assesses the pick
+      if (!supports_move(from_guess, result)) {
+        assessed = false;
+        const int searched = result.iterations;  // the pick's steps, counted though it is not taken
+        result = from_guess;
+        result.iterations = searched;
+        result.coarse_rejected = true;
+      }
     }
     result.iterations = iterations + result.iterations;
     result.initial_cost = initial_cost;
     result.coarse_search = true;
   }
-  assess_degeneracy(result);
+  if (!assessed) assess_degeneracy(result);
   Eigen::Matrix3d scan_information = result.hessian;
   if (yaw_only_) {
     // What the scan told is its information along the basis only; the rest is the guess's.

@@ -5,6 +5,7 @@
 #include <array>
 #include <cstdint>
 #include <optional>
+#include <span>
 #include <vector>
 
 #include "hmap/core/params.hpp"
@@ -160,9 +161,13 @@ class ScanMatcher {
   void select(const ScanHVoxels& scan_level, float min_match);
   /// Whether eq. (5) supports moving from `from` (Gauss-Newton from the guess) to `to` (the coarse
   /// search's pick): a move under a cell always; else the gain is at least slam.degeneracy_ratio of
-  /// the rise over as long a move along `to`'s best-constrained direction (then `to`'s curvature
-  /// is filled, assess_degeneracy).
+  /// the rise over as long a move along `to`'s best-constrained direction. Assesses `to`'s
+  /// degeneracy (assess_degeneracy) on the way.
   bool supports_move(const MatchResult& from, MatchResult& to);
+  /// Every how many selected HVoxels the curvature probes sum (at most kCurvatureHVoxels of them).
+  [[nodiscard]] std::size_t curvature_stride() const;
+  /// cost_only at each pose over the probes' thinned HVoxels, the poses on the cores.
+  void probe_costs(std::span<const PlanarPose> poses, std::span<double> costs) const;
   Linearization linearize(const PlanarPose& pose, std::size_t stride);
   /// The cost of linearize(pose, stride) (same terms, same order), without touching the cached
   /// F values: poses can be scored in parallel.
