@@ -24,7 +24,7 @@ DEBS := cmake ninja-build g++ libeigen3-dev libnanoflann-dev libtbb-dev libcli11
 # driven by Node, which DEBS holds).
 TEST_DEBS := chromium
 
-.PHONY: all deps test-deps build tool demo demo-real test test-sanitize ros2-test-deps bench bench-slam bench-peers clean fuzz-ci test-tsan
+.PHONY: all deps test-deps build tool demo demo-real test test-sanitize ros2-test-deps bench bench-slam bench-slam-suite bench-peers clean fuzz-ci test-tsan
 
 all: build
 
@@ -86,6 +86,13 @@ bench-slam: build
 	@missing=$$(for p in $(PEER_DEBS); do dpkg-query -W -f='$${Status}\n' $$p 2>/dev/null | grep -q '^install ok installed' || echo $$p; done); \
 	if [ -n "$$missing" ]; then apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $$missing; fi
 	/usr/bin/python3 bench/slam_peers.py --hmap $(BUILD)/bin/hmap --data $(DATA) --peers $(abspath ../shared/peers)
+
+# hmap slam with its defaults on the simulator's routes, over sensors and eight noise seeds, and on
+# the real sets with a reference (bench/slam_suite.py, the standard library only; about 15 minutes
+# on two cores, the simulations kept in out/slam_suite for the next run). kitti_hdl64_seq16 is
+# scored against the Open3D ICP trajectory that `make bench-slam` writes.
+bench-slam-suite: tool
+	python3 bench/slam_suite.py --hmap $(BUILD)/bin/hmap --data $(DATA) --seeds 8 --json out/slam_suite/defaults.json
 
 # The same suite under AddressSanitizer and UndefinedBehaviorSanitizer, and every reader and loader
 # fuzzed (fuzz/), from one clang build: the libraries carry libFuzzer's coverage as well, so the
