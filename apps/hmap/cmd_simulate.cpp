@@ -1,6 +1,7 @@
 // hmap simulate: a recording with ground truth, in the KITTI layout.
 
 #include <cstdio>
+#include <numbers>
 
 #include "cli_common.hpp"
 #include "hmap/core/format.hpp"
@@ -23,6 +24,7 @@ struct SimulateOptions {
   std::string out;
   bool route_km_given = false;
   std::string route = "random";
+  double mount_yaw_deg = 0.0;  ///< [deg] --mount-yaw
 };
 
 void run_simulate(const SimulateOptions& o) {
@@ -91,10 +93,11 @@ void run_simulate(const SimulateOptions& o) {
                     "(%s noise-free returns)",
                     human_count(static_cast<double>(rec.truth_surface.size())).c_str(), o.spec.truth_spacing,
                     human_count(static_cast<double>(rec.truth_seen.size())).c_str());
-  std::printf("Simulated %zu %s %s of '%s' (seed %llu) along %.1f m in %.1f s: %s points. Wrote %s: "
+  const std::string turned = o.mount_yaw_deg != 0.0 ? format(", the sensor turned %g deg", o.mount_yaw_deg) : "";
+  std::printf("Simulated %zu %s %s of '%s' (seed %llu%s) along %.1f m in %.1f s: %s points. Wrote %s: "
               "velodyne/*.%s, poses.txt (truth%s), times.txt, odometry.txt (noisy), %s.\n",
               rec.T_world_sensor.size(), o.spec.sensor.c_str(), o.spec.sweep ? "sweeps" : "frames", o.scene_file.empty() ? o.spec.scene.c_str() : o.scene_file.c_str(),
-              static_cast<unsigned long long>(o.spec.seed), length, ms_since(t0) / 1000.0,
+              static_cast<unsigned long long>(o.spec.seed), turned.c_str(), length, ms_since(t0) / 1000.0,
               human_count(static_cast<double>(rec.points)).c_str(), o.out.c_str(), o.spec.sweep ? "pcd" : "bin",
               o.spec.sweep ? " at each sweep's start; each point's time t [s] from it is in the .pcd" : "",
               truth_text.c_str());
@@ -137,9 +140,14 @@ void add_simulate_command(CLI::App& app) {
   cmd->add_flag("--sweep", opts->spec.sweep,
                 "vlp16, hdl64: each scan a 0.1 s sweep taken while the sensor moves, written as velodyne/*.pcd with "
                 "each point's time t [s] from the sweep's start (hmap slam deskews them); poses.txt at the starts");
+  cmd->add_option("--mount-yaw", opts->mount_yaw_deg,
+                  "[deg] vlp16, hdl64, os0-64: the sensor mounted turned about its axis, -180 to 180, so that the "
+                  "scene's walls lie at that angle to the first scan's axes (and to the grid of a map in its frame)")
+      ->capture_default_str();
   cmd->add_option("--out,-o", opts->out, "Output folder")->required();
   cmd->callback([opts, route_km] {
     opts->route_km_given = route_km->count() > 0;
+    opts->spec.mount_yaw = opts->mount_yaw_deg * std::numbers::pi / 180.0;
     run_simulate(*opts);
   });
 }

@@ -8,6 +8,7 @@
 
 #include <memory>
 #include <mutex>
+#include <numbers>
 #include <optional>
 #include <random>
 #include <string>
@@ -138,7 +139,7 @@ void write_sequence(const std::filesystem::path& dir, const py::sequence& frames
 
 py::dict simulate_dict(const py::handle& scene_arg, const std::string& sensor, std::size_t frames, std::size_t stride,
                        bool long_route, std::uint64_t seed, double truth_spacing, double truth_reach, double imu_rate,
-                       bool sweep) {
+                       bool sweep, double mount_yaw_deg) {
   sim::SimulationSpec spec;
   const sim::Scene* scene = nullptr;
   std::optional<sim::Scene> builtin;
@@ -161,6 +162,7 @@ py::dict simulate_dict(const py::handle& scene_arg, const std::string& sensor, s
   spec.truth_reach = truth_reach;
   spec.imu_rate = imu_rate;
   spec.sweep = sweep;
+  spec.mount_yaw = mount_yaw_deg * std::numbers::pi / 180.0;
   sim::SimulatedRecording rec;
   {
     py::gil_scoped_release release;  // `scene_arg` keeps a caller's scene alive meanwhile
@@ -352,7 +354,7 @@ void bind_sim(py::module_& m) {
   s.def("simulate", &simulate_dict, py::arg("scene") = "parking", py::arg("sensor") = "vlp16", py::kw_only(),
         py::arg("frames") = 0, py::arg("stride") = 1, py::arg("long_route") = false, py::arg("seed") = 1,
         py::arg("truth_spacing") = 0.1, py::arg("truth_reach") = 30.0, py::arg("imu_rate") = 0.0,
-        py::arg("sweep") = false,
+        py::arg("sweep") = false, py::arg("mount_yaw") = 0.0,
         "`hmap simulate` in memory: the sensor (Sensor.names()) along the scene's scripted path (a Scene object "
         "drives the office robot's route, as --scene-file), every `stride`-th frame of the 10 Hz path, the "
         "first `frames` (0: all). Runs without the GIL. Returns a dict: scans (list of (N, 3) float32, sensor "
@@ -360,7 +362,8 @@ void bind_sim(py::module_& m) {
         "poses (K, 4, 4) true T_world_sensor, times (K,), odometry (K, 4, 4) noisy, imu ({'t', 'gyro', 'accel'} "
         "at imu_rate Hz, or None), truth_surface / truth_ground (the dense surface sample every truth_spacing m "
         "within truth_reach m of the path, and its walkable part) and truth_seen (noise-free returns, world "
-        "frame), points (the scans' total). The same seed gives the files `hmap simulate --seed` writes.");
+        "frame), points (the scans' total). The same seed gives the files `hmap simulate --seed` writes. "
+        "mount_yaw [deg]: a spinning lidar mounted turned about its axis (--mount-yaw).");
   s.def("write_sequence", &write_sequence, py::arg("dir"), py::arg("frames"), py::arg("poses"), py::arg("times"),
         py::kw_only(), py::arg("odometry") = py::none(), py::arg("truth_points") = py::none(),
         py::arg("point_times") = py::none(),

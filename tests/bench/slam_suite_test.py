@@ -91,12 +91,21 @@ def main():
         with open(os.path.join(tmp, "walls.json")) as f:
             check(json.load(f)["slam_args"] == ["--set", "slam.wall_refine=1"], "the JSON records the arguments")
 
+        # --mount-yaw turns the simulated lidar: a run of its own, simulated with hmap simulate --mount-yaw.
+        r = subprocess.run([sys.executable, suite, "--hmap", a.hmap, "--data", os.path.join(tmp, "no-data"), "--work",
+                            work, "--only", "^office-vlp16-turned20$", "--mount-yaw", "20"], capture_output=True, text=True)
+        check(r.returncode == 0, f"a turned run exits 0: {r.stderr[-500:]}")
+        turned_log = os.path.join(work, "sim", "scene_office_sensor_vlp16_frames_60_mount-yaw_20.log")
+        check(os.path.isfile(turned_log) and "the sensor turned 20 deg" in open(turned_log).read(),
+              "the turned route is hmap simulate --mount-yaw 20")
+        check("| office-vlp16-turned20 | 3.0 |" in r.stdout, f"the turned run has its own name: {r.stdout}")
+
         # Bad arguments: exit 2, one line naming the argument.
         bad_baseline = os.path.join(tmp, "bad.json")
         with open(bad_baseline, "w") as f:
             f.write("{not json")
         for args, named in ((["--seeds", "0"], "--seeds 0"), (["--jobs", "99"], "--jobs 99"),
-                            (["--only", "("], "--only '('"), (["--only", "nothing-matches"], "matches no run"),
+                            (["--only", "("], "--only '('"), (["--mount-yaw", "400"], "--mount-yaw 400"), (["--only", "nothing-matches"], "matches no run"),
                             (["--hmap", os.path.join(tmp, "absent")], "not an executable"),
                             (["--baseline", bad_baseline], f"--baseline {bad_baseline}")):
             r = subprocess.run([sys.executable, suite, "--hmap", a.hmap, "--work", work, *args],

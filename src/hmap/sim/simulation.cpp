@@ -1,6 +1,8 @@
 #include "hmap/sim/simulation.hpp"
 
 #include <algorithm>
+#include <cmath>
+#include <numbers>
 #include <random>
 #include <variant>
 
@@ -130,7 +132,17 @@ SimulatedRecording simulate(const SimulationSpec& spec, const Scene& scene, cons
   // Spinning lidars on a car roof, the others on a robot at about 0.5 m (the Kinect at 0.8 m).
   const bool outdoor = is_spinning_lidar(spec.sensor);
   const double height = outdoor ? 1.73 : spec.sensor == "kinect" ? 0.8 : 0.5;
-  const Trajectory path = path_for(spec, height);
+  Trajectory path = path_for(spec, height);
+  if (spec.mount_yaw != 0.0) {
+    if (!(std::abs(spec.mount_yaw) <= std::numbers::pi)) {
+      throw Error(format("--mount-yaw must be within [-180, 180] deg (got %g deg)", spec.mount_yaw * 180.0 / std::numbers::pi));
+    }
+    // Turned about its axis, a spinning lidar sees the same scene; a camera or a line scanner
+    // would look somewhere else.
+    if (!outdoor) throw Error("--mount-yaw turns a spinning lidar (vlp16, hdl64, os0-64), not '" + spec.sensor + "'");
+    const Eigen::AngleAxisd turn(spec.mount_yaw, Eigen::Vector3d::UnitZ());
+    for (Pose& T : path.T_world_sensor) T = T * turn;
+  }
 
   SimulatedRecording rec;
   for (std::size_t k = 0; k < path.T_world_sensor.size(); k += spec.stride) {

@@ -59,6 +59,10 @@ struct SimulationSpec {
   /// is the one at the sweep's start, the reference of the times. Otherwise the whole frame is
   /// taken at one instant.
   bool sweep = false;
+  /// [rad] spinning lidars: the sensor mounted turned by this about its own z axis, in
+  /// [−π, π]. The scene then lies at that angle to the first scan's axes, and so to the grid of a
+  /// map built in its frame: the built-in scenes' walls are otherwise parallel to it.
+  double mount_yaw = 0.0;
 };
 
 struct SimulatedRecording {
