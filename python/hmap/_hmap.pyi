@@ -204,7 +204,7 @@ class sim:
     @staticmethod
     def simulate(scene: Union[str, sim.Scene] = "parking", sensor: str = "vlp16", *, frames: int = 0, stride: int = 1,
                  long_route: bool = False, seed: int = 1, truth_spacing: float = 0.1, truth_reach: float = 30.0,
-                 imu_rate: float = 0.0, sweep: bool = False) -> dict[str, Any]: ...
+                 imu_rate: float = 0.0, sweep: bool = False, mount_yaw: float = 0.0) -> dict[str, Any]: ...
     @staticmethod
     def write_sequence(dir: _Path, frames: Sequence[npt.NDArray[np.floating]], poses: npt.ArrayLike,
                        times: npt.ArrayLike, *, odometry: Optional[npt.ArrayLike] = None,
