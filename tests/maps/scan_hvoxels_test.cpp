@@ -67,6 +67,96 @@ TEST(ScanHVoxelsTest, IndexingAndClusteringByHand) {
   EXPECT_FLOAT_EQ(w[0].z_max, 1.0F);
 }
 
+// The centroids of IndexingAndClusteringByHand's HVoxels, by hand: [0, 0.4] holds (2.5, 0.5),
+// (2.1, 0.9), (2.2, 0.3) -> (6.8 / 3, 1.7 / 3); [1.5, 1.9] holds (2.9, 0.1), (2.5, 0.5) -> (2.7, 0.3).
+TEST(ScanHVoxelsTest, CentroidsByHand) {
+  ScanHVoxelizer h(unit_params());
+  ScanHVoxels r;
+  const PointCloud pts = {{2.5F, 0.5F, 0.4F}, {2.1F, 0.9F, 0.0F}, {2.9F, 0.1F, 1.9F},
+                          {2.5F, 0.5F, 1.5F}, {2.2F, 0.3F, 0.2F}, {-0.5F, 3.5F, 1.0F}};
+  h.build(pts, Pose::Identity(), r);
+  EXPECT_TRUE(r.centroids.empty()) << "off by default: the mapper does not pay for them";
+  h.keep_centroids(true);
+  h.build(pts, Pose::Identity(), r);
+  ASSERT_EQ(r.centroids.size(), r.hvoxels.size());
+  for (const ScanCell& c : r.cells) {
+    if (c.key == CellKey{2, 0}) {
+      ASSERT_EQ(c.count, 2U);
+      EXPECT_NEAR(r.centroids[c.first].x(), 6.8 / 3.0, 1e-6);
+      EXPECT_NEAR(r.centroids[c.first].y(), 1.7 / 3.0, 1e-6);
+      EXPECT_NEAR(r.centroids[c.first + 1].x(), 2.7, 1e-6);
+      EXPECT_NEAR(r.centroids[c.first + 1].y(), 0.3, 1e-6);
+    } else {
+      EXPECT_NEAR(r.centroids[c.first].x(), -0.5, 1e-6);
+      EXPECT_NEAR(r.centroids[c.first].y(), 3.5, 1e-6);
+    }
+  }
+  h.keep_centroids(false);
+  h.build(pts, Pose::Identity(), r);
+  EXPECT_TRUE(r.centroids.empty()) << "a later build without them leaves none stale";
+}
+
+// Under a pose, with dropped points, many cells and clusters: each HVoxel's centroid is the mean
+// of the transformed points whose cell and height are its own (a brute-force twin), and lies in
+// its cell.
+TEST(ScanHVoxelsTest, CentroidsAgreeWithABruteForceTwin) {
+  MapParams p = unit_params();
+  p.cell_size = 0.2;
+  p.point_distance_threshold = 0.3;
+  p.min_range = 0.5;
+  p.max_range = 8.0;
+  ScanHVoxelizer h(p);
+  h.keep_centroids(true);
+  ScanHVoxels r;
+  std::mt19937 rng(2812);
+  std::uniform_real_distribution<float> xy(-9.0F, 9.0F);
+  std::uniform_real_distribution<float> z(-1.0F, 2.0F);
+  PointCloud pts;
+  for (int k = 0; k < 20000; ++k) pts.emplace_back(xy(rng), xy(rng), k % 4 == 0 ? 0.0F : z(rng));
+  pts.emplace_back(std::numeric_limits<float>::quiet_NaN(), 0.0F, 0.0F);
+  Pose T = Pose::Identity();
+  T.linear() = (Eigen::AngleAxisd(0.35, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(0.05, Eigen::Vector3d::UnitX()))
+                   .toRotationMatrix();
+  T.translation() = Eigen::Vector3d(1234.56, -78.9, 0.4);
+  h.build(pts, T, r);
+  ASSERT_EQ(r.centroids.size(), r.hvoxels.size());
+  ASSERT_GT(r.hvoxels.size(), 1000U);
+  std::vector<Eigen::Vector3d> sums(r.hvoxels.size(), Eigen::Vector3d::Zero());
+  std::size_t assigned = 0;
+  for (const Point3f& ps : pts) {
+    if (!ps.allFinite()) continue;
+    const double range = ps.cast<double>().norm();
+    if (range < p.min_range || range > p.max_range) continue;
+    const Eigen::Vector3d q = T * ps.cast<double>();
+    const CellKey key{static_cast<std::int32_t>(std::floor(q.x() / p.cell_size)),
+                      static_cast<std::int32_t>(std::floor(q.y() / p.cell_size))};
+    for (const ScanCell& c : r.cells) {
+      if (!(c.key == key)) continue;
+      for (std::uint32_t k = c.first; k < c.first + c.count; ++k) {
+        if (std::abs(q.z() - r.hvoxels[k].z_min) < 1e-4 || std::abs(q.z() - r.hvoxels[k].z_max) < 1e-4 ||
+            (q.z() > r.hvoxels[k].z_min && q.z() < r.hvoxels[k].z_max)) {
+          sums[k] += Eigen::Vector3d(q.x(), q.y(), 1.0);
+          ++assigned;
+          break;
+        }
+      }
+    }
+  }
+  EXPECT_EQ(assigned, r.points_kept);
+  for (const ScanCell& c : r.cells) {
+    for (std::uint32_t k = c.first; k < c.first + c.count; ++k) {
+      ASSERT_EQ(sums[k].z(), static_cast<double>(r.hvoxels[k].count));
+      const Eigen::Vector2d mean = sums[k].head<2>() / sums[k].z();
+      EXPECT_NEAR(r.centroids[k].x(), mean.x(), 2e-4);
+      EXPECT_NEAR(r.centroids[k].y(), mean.y(), 2e-4);
+      EXPECT_GE(r.centroids[k].x(), c.key.i * p.cell_size - 2e-4);
+      EXPECT_LE(r.centroids[k].x(), (c.key.i + 1) * p.cell_size + 2e-4);
+      EXPECT_GE(r.centroids[k].y(), c.key.j * p.cell_size - 2e-4);
+      EXPECT_LE(r.centroids[k].y(), (c.key.j + 1) * p.cell_size + 2e-4);
+    }
+  }
+}
+
 TEST(ScanHVoxelsTest, ThresholdBoundary) {
   MapParams p = unit_params();
   p.point_distance_threshold = 0.25;  // exactly representable, as are the heights below

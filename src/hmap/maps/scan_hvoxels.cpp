@@ -44,6 +44,8 @@ void ScanHVoxelizer::build(std::span<const Point3f> points_sensor, const Pose& T
   if (!T_map_sensor.matrix().allFinite()) throw Error("scan pose is not finite");
   index_points(points_sensor, T_map_sensor, out);
   cluster_heights(out);
+  out.centroids.clear();
+  if (keep_centroids_) sum_centroids(out);
 }
 
 void ScanHVoxelizer::index_points(std::span<const Point3f> points_sensor, const Pose& T_map_sensor,
@@ -75,6 +77,9 @@ void ScanHVoxelizer::index_points(std::span<const Point3f> points_sensor, const 
   const std::size_t n = points_sensor.size();
   point_window_.resize(n);
   point_z_.resize(n);
+  const bool keep_xy = keep_centroids_;
+  if (keep_xy) point_xy_.resize(n);
+  Eigen::Vector2f* const xy_of_point = keep_xy ? point_xy_.data() : nullptr;
   // Everything the loop reads besides the point is held in locals of the task: through the
   // captured references the compiler reloaded the rotation, the origin and the window on every
   // point (it cannot tell that the stores to point_window_ and point_z_ leave them alone).
@@ -129,6 +134,9 @@ void ScanHVoxelizer::index_points(std::span<const Point3f> points_sensor, const 
       // window.index({i, j}), from the locals.
       window_of_point[k] = static_cast<std::uint32_t>((i - ci + half) * width + (j - cj + half));
       z_of_point[k] = static_cast<float>((r20 * px + (r21 * py + r22 * pz)) + oz);
+      if (xy_of_point != nullptr) {
+        xy_of_point[k] = Eigen::Vector2f(static_cast<float>(x_map - ox), static_cast<float>(y_map - oy));
+      }
     }
   });
   // Number the cells in order of first appearance (serial: it builds the cell list).
@@ -155,12 +163,14 @@ void ScanHVoxelizer::index_points(std::span<const Point3f> points_sensor, const 
     }
     cell_out[kept] = slot - 1;
     z_of_point[kept] = z_of_point[k];
+    if (keep_xy) xy_of_point[kept] = xy_of_point[k];
     ++kept;
   }
   out.dropped_non_finite = non_finite;
   out.dropped_range = out_of_range;
   point_cell_.resize(kept);
   point_z_.resize(kept);
+  if (keep_xy) point_xy_.resize(kept);
   out.points_kept = kept;
 }
 
@@ -260,6 +270,30 @@ void ScanHVoxelizer::cluster_heights(ScanHVoxels& out) {
       }
     }
   });
+}
+
+void ScanHVoxelizer::sum_centroids(ScanHVoxels& out) {
+  // Each kept point is in exactly one HVoxel of its cell: the cluster whose bounds hold its height
+  // (the bounds are the extreme heights themselves, the same floats). The sums are relative to the
+  // origin, in double, so that a cell far out keeps its sub-millimetre centroid.
+  const std::size_t n = out.hvoxels.size();
+  std::vector<Eigen::Vector3d>& sums = centroid_sums_;
+  sums.assign(n, Eigen::Vector3d::Zero());
+  for (std::size_t k = 0; k < point_cell_.size(); ++k) {
+    const ScanCell& cell = out.cells[point_cell_[k]];
+    const float z = point_z_[k];
+    std::uint32_t h = cell.first;
+    const std::uint32_t last = cell.first + cell.count - 1;
+    while (h < last && z > out.hvoxels[h].z_max) ++h;
+    sums[h] += Eigen::Vector3d(point_xy_[k].x(), point_xy_[k].y(), 1.0);
+  }
+  out.centroids.resize(n);
+  const Eigen::Vector2d origin = out.origin_map.head<2>();
+  for (std::size_t h = 0; h < n; ++h) {
+    const Eigen::Vector3d& m = sums[h];
+    const Eigen::Vector2d mean = m.z() > 0.0 ? Eigen::Vector2d(origin + m.head<2>() / m.z()) : origin;
+    out.centroids[h] = mean.cast<float>();
+  }
 }
 
 }  // namespace hmap

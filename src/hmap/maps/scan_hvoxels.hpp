@@ -49,6 +49,10 @@ struct ScanHVoxels {
   ScanWindow window;
   std::vector<ScanCell> cells;
   std::vector<HVoxel> hvoxels;
+  /// Per HVoxel (same index), the plan centroid (x, y) of the points it was made of, in the map
+  /// frame; empty unless the builder keeps them (ScanHVoxelizer::keep_centroids). Within its cell,
+  /// where the cell's centre is only within half a cell of the surface.
+  std::vector<Eigen::Vector2f> centroids;
   std::size_t points_in = 0;
   std::size_t points_kept = 0;
   std::size_t dropped_non_finite = 0;  ///< NaN or infinite coordinates
@@ -68,6 +72,11 @@ class ScanHVoxelizer {
   /// cell's heights with the point-distance threshold and makes one HVoxel per cluster (eq. 1).
   void build(std::span<const Point3f> points_sensor, const Pose& T_map_sensor, ScanHVoxels& out);
 
+  /// Whether build() also fills ScanHVoxels::centroids (off by default: the mapper has no use for
+  /// them). On, it keeps each point's plan position while binning and sums them per HVoxel after
+  /// clustering.
+  void keep_centroids(bool on) { keep_centroids_ = on; }
+
   /// Scan cell index + 1 of each window cell of the last build (0: no point there).
   [[nodiscard]] const std::vector<std::uint32_t>& cell_of_window() const { return cell_of_window_; }
 
@@ -75,6 +84,7 @@ class ScanHVoxelizer {
   void index_points(std::span<const Point3f> points_sensor, const Pose& T_map_sensor,
                     ScanHVoxels& out);                 // Alg. 1
   void cluster_heights(ScanHVoxels& out);              // Alg. 2
+  void sum_centroids(ScanHVoxels& out);                // ScanHVoxels::centroids
 
   MapParams params_;
   ScanWindow window_;
@@ -83,6 +93,9 @@ class ScanHVoxelizer {
   std::vector<std::uint32_t> point_window_;    // per point: its window cell, or a drop code
   std::vector<std::uint32_t> point_cell_;      // per kept point: its scan cell
   std::vector<float> point_z_;                 // per kept point: map z
+  std::vector<Eigen::Vector2f> point_xy_;      // per kept point, with keep_centroids_: map x, y − the origin's
+  std::vector<Eigen::Vector3d> centroid_sums_;  // per HVoxel: Σx, Σy (from the origin), n
+  bool keep_centroids_ = false;
   std::vector<std::uint32_t> cell_offset_;     // counting sort of heights by cell
   std::vector<float> sorted_z_;
   std::vector<std::uint32_t> cluster_count_;   // prefix sums of the clusters per cell
