@@ -110,7 +110,7 @@ TEST(ParamsTest, EveryParameterHasAFiniteRangeTheDefaultsLieIn) {
 TEST(ParamsTest, EveryParameterAtItsExtremesIsTakenOrRefusedByName) {
   Params scratch;
   const auto refs = param_refs(scratch);
-  ASSERT_EQ(refs.size(), 76U);  // a new parameter needs its range, and a look at this test
+  ASSERT_EQ(refs.size(), 77U);  // a new parameter needs its range, and a look at this test
   const double inf = std::numeric_limits<double>::infinity();
   for (const auto& r : refs) {
     const ParamRange& range = r.range;
@@ -126,7 +126,8 @@ TEST(ParamsTest, EveryParameterAtItsExtremesIsTakenOrRefusedByName) {
                          r.name.starts_with("slam.interpolation") || r.name == "slam.max_iterations" ||
                          r.name == "slam.max_hvoxels" || r.name == "slam.attitude_iterations" || r.name == "slam.deskew" ||
                          r.name == "slam.loop_closure" || r.name == "slam.loop_submap_scans" ||
-                         r.name == "slam.loop_candidates" || r.name == "slam.wall_refine" || r.name == "slam.wall_iterations";
+                         r.name == "slam.loop_candidates" || r.name == "slam.wall_refine" || r.name == "slam.wall_iterations" ||
+                         r.name == "slam.hvoxel_centroids";
     for (const double v : {lo_out, hi_out, std::nan(""), inf, -inf, 1e300, -1e300}) {
       // An integer just beyond its range rounds back into it: step a whole unit out instead.
       double out = integer && std::isfinite(v) && std::abs(v) < 1e300 ? (v < range.min ? range.min - 1.0 : range.max + 1.0) : v;

@@ -76,28 +76,36 @@ Params yard_params() {
 
 TEST(HmapSlam, FollowsASimulatedDrive) {
   // Six HDL-64 scans 8 cm apart (the first step, with no velocity yet, within the basin) along a gentle curve in a walled yard, constant velocity as
-  // the only prior: every pose within 3 cm and 0.3° of the truth.
+  // the only prior: every pose within 3 cm and 0.3° of the truth; the same with the scan HVoxels
+  // matched at their points' centroids (slam.hvoxel_centroids), whose poses are their own.
   const sim::Scene scene = yard();
-  HmapSlam slam(yard_params());
-  sim::SpinningLidar lidar(sim::SpinningLidarParams::hdl64e());
-  const Attitude att{1.8, 0.0, 0.0};
-  for (int k = 0; k < 6; ++k) {
-    const PlanarPose truth{0.08 * k, 0.005 * k * k, 0.3 * kDeg * k};
-    const PointCloud scan = lidar.scan(scene, compose(truth, att), 0.1 * k).points_sensor;
-    const SlamStep step = slam.process(scan, std::optional<Attitude>(att));
-    EXPECT_EQ(step.matched, k > 0);
-    const PlanarPose est = planar_of(step.T_map_sensor);
-    EXPECT_NEAR(est.x, truth.x, 0.03) << k;
-    EXPECT_NEAR(est.y, truth.y, 0.03) << k;
-    EXPECT_NEAR(est.yaw, truth.yaw, 0.3 * kDeg) << k;
-    EXPECT_NEAR(step.T_map_sensor.translation().z(), att.z, 1e-12);
-    if (k > 0) {
-      EXPECT_TRUE(step.match.converged) << k;
-      EXPECT_FALSE(step.match.degenerate) << k;
+  std::vector<PlanarPose> at_centres;
+  for (const int centroids : {0, 1}) {
+    Params params = yard_params();
+    params.slam.hvoxel_centroids = centroids;
+    HmapSlam slam(params);
+    sim::SpinningLidar lidar(sim::SpinningLidarParams::hdl64e());
+    const Attitude att{1.8, 0.0, 0.0};
+    for (int k = 0; k < 6; ++k) {
+      const PlanarPose truth{0.08 * k, 0.005 * k * k, 0.3 * kDeg * k};
+      const PointCloud scan = lidar.scan(scene, compose(truth, att), 0.1 * k).points_sensor;
+      const SlamStep step = slam.process(scan, std::optional<Attitude>(att));
+      if (centroids == 0) at_centres.push_back(planar_of(step.T_map_sensor));
+      if (centroids == 1 && k > 0) EXPECT_NE(planar_of(step.T_map_sensor).x, at_centres[static_cast<std::size_t>(k)].x) << k;
+      EXPECT_EQ(step.matched, k > 0);
+      const PlanarPose est = planar_of(step.T_map_sensor);
+      EXPECT_NEAR(est.x, truth.x, 0.03) << k;
+      EXPECT_NEAR(est.y, truth.y, 0.03) << k;
+      EXPECT_NEAR(est.yaw, truth.yaw, 0.3 * kDeg) << k;
+      EXPECT_NEAR(step.T_map_sensor.translation().z(), att.z, 1e-12);
+      if (k > 0) {
+        EXPECT_TRUE(step.match.converged) << k;
+        EXPECT_FALSE(step.match.degenerate) << k;
+      }
     }
+    EXPECT_EQ(slam.scans(), 6U);
+    EXPECT_FALSE(slam.map().empty());
   }
-  EXPECT_EQ(slam.scans(), 6U);
-  EXPECT_FALSE(slam.map().empty());
 }
 
 TEST(HmapSlam, TheSameResultOnOneThreadAndOnFour) {

@@ -112,6 +112,34 @@ TEST(ScanMatcher, RecoversAKnownPlanarTransformAtAnyHeading) {
   }
 }
 
+// eq. (6)'s v is the HVoxel's plan centroid when the scan carries them (slam.hvoxel_centroids):
+// every centroid moved by 3 cm in x moves the matched pose back by as much, and none matches at the
+// cells' centres as the paper has it.
+TEST(ScanMatcher, MatchesTheScanAtItsHVoxelsCentroids) {
+  const sim::Scene scene = yard_builder().build();
+  const Params p = yard_params();
+  const PlanarPose truth{0.08, -0.06, 1.0 * kDeg};
+  TwoScans s = two_scans(scene, p, {PlanarPose{}}, truth);
+  ASSERT_TRUE(s.scan_level.centroids.empty());
+  ScanMatcher matcher(p);
+  const MatchResult at_centres = matcher.match(s.scan_level, s.map, PlanarPose{});
+  ScanHVoxelizer level(p.map);
+  level.keep_centroids(true);
+  level.build(scan_at(scene, truth, 0.0, 2), compose(PlanarPose{}, Attitude{kSensorHeight, 0.0, 0.0}), s.scan_level);
+  ASSERT_EQ(s.scan_level.centroids.size(), s.scan_level.hvoxels.size());
+  const MatchResult at_centroids = matcher.match(s.scan_level, s.map, PlanarPose{});
+  EXPECT_TRUE(at_centroids.converged);
+  EXPECT_NEAR(at_centroids.pose.x, truth.x, 0.01);
+  EXPECT_NEAR(at_centroids.pose.y, truth.y, 0.01);
+  EXPECT_LT(yaw_error(at_centroids.pose.yaw, truth.yaw), 0.1 * kDeg);
+  EXPECT_NE(at_centroids.pose.x, at_centres.pose.x);
+  for (Eigen::Vector2f& c : s.scan_level.centroids) c.x() += 0.03F;
+  const MatchResult moved = matcher.match(s.scan_level, s.map, PlanarPose{});
+  EXPECT_NEAR(moved.pose.x, at_centroids.pose.x - 0.03, 0.003);
+  EXPECT_NEAR(moved.pose.y, at_centroids.pose.y, 0.003);
+  EXPECT_LT(yaw_error(moved.pose.yaw, at_centroids.pose.yaw), 0.02 * kDeg);
+}
+
 bool recovered(const MatchResult& r, const PlanarPose& truth) {
   return std::hypot(r.pose.x - truth.x, r.pose.y - truth.y) < 0.02 && yaw_error(r.pose.yaw, truth.yaw) < 0.2 * kDeg;
 }

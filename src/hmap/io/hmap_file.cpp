@@ -41,7 +41,8 @@ bool is_later_parameter(const std::string& name) {
       "slam.odometry_sigma_translation", "slam.odometry_sigma_rotation", "slam.odometry_noise",
       "occupancy.obstacle_reach", "slam.loop_closure", "slam.keyframe_distance", "slam.keyframe_rotation",
       "slam.loop_submap_scans", "slam.loop_min_travel", "slam.loop_search_radius", "slam.loop_max_descriptor_distance",
-      "slam.loop_candidates", "slam.loop_search_translation", "slam.loop_search_rotation", "slam.loop_min_score"};
+      "slam.loop_candidates", "slam.loop_search_translation", "slam.loop_search_rotation", "slam.loop_min_score",
+      "slam.hvoxel_centroids"};
   for (const char* n : kLater) {
     if (name == n) return true;
   }

@@ -70,17 +70,22 @@ void ScanMatcher::select(const ScanHVoxels& scan_level, float min_match) {
   double next = 0.0;
   std::size_t index = 0;
   double radius_sq = 0.0;
+  // v_x, v_y of eq. (6): the HVoxel's points' plan centroid when the scan has them (a surface lies
+  // anywhere in its cell; at the cell's centre every HVoxel is up to half a cell off, and the match
+  // is pulled toward poses where the scan's grid and the map's coincide), else the cell's centre.
+  const bool centroids = scan_level.centroids.size() == scan_level.hvoxels.size();
   for (const ScanCell& cell : scan_level.cells) {
-    const Eigen::Vector2f v{static_cast<float>((cell.key.i + 0.5) * s), static_cast<float>((cell.key.j + 0.5) * s)};
-    for (const HVoxel& h : scan_level.hvoxels_of(cell)) {
+    const Eigen::Vector2f centre{static_cast<float>((cell.key.i + 0.5) * s), static_cast<float>((cell.key.j + 0.5) * s)};
+    for (std::uint32_t k = cell.first; k < cell.first + cell.count; ++k) {
+      const HVoxel& h = scan_level.hvoxels[k];
       if (h.density < n_th || h.height() < min_match) continue;
       if (static_cast<double>(index++) < next) continue;
       next += keep_every;
       Candidate c;
-      c.v = v;
+      c.v = centroids ? scan_level.centroids[k] : centre;
       c.layer = widened(h.interval(), min_height);
       candidates_.push_back(c);
-      radius_sq += static_cast<double>(v.squaredNorm());
+      radius_sq += static_cast<double>(c.v.squaredNorm());
     }
   }
   rms_radius_ = candidates_.empty() ? 1.0 : std::max(s, std::sqrt(radius_sq / static_cast<double>(candidates_.size())));
