@@ -53,6 +53,7 @@ HmapSlam::HmapSlam(const Params& params)
       matcher_(params),
       refiner_(params),
       level_hvoxelizer_(params.map),
+      map_centroids_(params.map.cell_size),
       wall_refiner_(params),
       wall_map_(params.map.cell_size, params.slam.wall_band_height),
       wall_scan_(params.map.cell_size, params.slam.wall_band_height) {
@@ -78,11 +79,13 @@ HmapSlam::HmapSlam(const Params& params, HMap map, const ContinueOptions& where)
       matcher_(params_),
       refiner_(params_),
       level_hvoxelizer_(params_.map),
+      map_centroids_(params_.map.cell_size),
       wall_refiner_(params_),
       wall_map_(params_.map.cell_size, params_.slam.wall_band_height),
       wall_scan_(params_.map.cell_size, params_.slam.wall_band_height),
       continuing_(where),
       map_as_given_(false) {
+  level_hvoxelizer_.keep_centroids(params_.slam.hvoxel_centroids >= 1);
   level_hvoxelizer_.keep_centroids(params_.slam.hvoxel_centroids != 0);
   const PlanarPose& g = where.guess;
   if (!(std::isfinite(g.x) && std::isfinite(g.y) && std::isfinite(g.yaw))) {
@@ -361,6 +364,7 @@ SlamStep HmapSlam::process(const ScanInput& input) {
         level_at = attitude;
       }
       built = false;
+      matcher_.set_map_centroids(params_.slam.hvoxel_centroids >= 2 ? &map_centroids_ : nullptr);
       step.match = matcher_.match(scan_level_, mapper_.map(), estimate, mode,
                                   scans_ >= 2 && !guess ? std::optional<PlanarPose>(last_) : std::nullopt,
                                   guess ? ThinFallback::kHeading : ThinFallback::kFull, prior);
@@ -433,6 +437,13 @@ SlamStep HmapSlam::process(const ScanInput& input) {
   // The floor normal in the map as this scan sees it, for the next scan's tilt prediction.
   if (floor_sensor) floor_up_ = (step.T_map_merged.linear() * *floor_sensor).normalized();
   step.mapping = mapper_.integrate(points_sensor, step.T_map_merged);
+  if (params_.slam.hvoxel_centroids >= 2 && level_at) {
+    // The scan's tall HVoxels' centroids into the map's cells, at the pose it was merged at
+    // (scan_level_ was built at level_at, whose tilt may be a step behind the final one: a
+    // second-order difference in the plane).
+    const PlanarPose merged = planar_of(step.T_map_merged);
+    map_centroids_.add(scan_level_, merged.x, merged.y, merged.yaw, static_cast<float>(params_.slam.min_match_height));
+  }
   map_as_given_ = map_as_given_ && !step.deskewed && step.T_map_merged.matrix() == step.T_map_sensor.matrix();
   // (Not for a continued map: rebuilt from the first scans alone, it would lose what was saved.)
   if (!input.times.empty() && params_.slam.deskew >= 1 && !step.deskewed && skewed_.size() == scans_ &&

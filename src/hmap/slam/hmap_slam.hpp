@@ -160,6 +160,7 @@ class HmapSlam {
   Eigen::Vector3d floor_up_ = Eigen::Vector3d::UnitZ();  // the floor's upward normal in the map, last seen
   ScanHVoxelizer level_hvoxelizer_;
   ScanHVoxels scan_level_;
+  CellCentroids map_centroids_;  // slam.hvoxel_centroids 2: where in its cell the map's surface lies
   WallRefiner wall_refiner_;
   WallGrid wall_map_;     // the map's wall points' moments (map frame)
   WallGrid wall_scan_;    // this scan's (level frame)

@@ -50,6 +50,21 @@ struct Projection {
   return p;
 }
 
+/// With the map's centroids: the projection moved back by the offset of the cell it lands in, so
+/// that the bilinear field, whose values stand at the cells' centres, is read as if they stood at
+/// the centroids. Its derivative is left out (the offset is constant within a cell).
+inline void shift_by_map_centroid(Projection& p, const CellCentroids* centroids, float cell) {
+  if (centroids == nullptr) return;
+  const CellKey at{static_cast<std::int32_t>(std::floor(p.u + 0.5F)), static_cast<std::int32_t>(std::floor(p.w + 0.5F))};
+  const Eigen::Vector2f* offset = centroids->offset(at);
+  if (offset == nullptr) return;
+  p.u -= offset->x() / cell;
+  p.w -= offset->y() / cell;
+  p.fu = std::floor(p.u);
+  p.fw = std::floor(p.w);
+  p.base = {static_cast<std::int32_t>(p.fu), static_cast<std::int32_t>(p.fw)};
+}
+
 }  // namespace
 
 ScanMatcher::ScanMatcher(const Params& params) : params_(params), interpolator_((validate(params), params)) {}
@@ -133,7 +148,9 @@ ScanMatcher::Linearization ScanMatcher::linearize(const PlanarPose& pose, std::s
   const std::size_t end = std::min(candidates_.size(), (chunk + 1) * kChunk * stride);
   for (std::size_t k = chunk * kChunk * stride; k < end; k += stride) {
     Candidate& cand = candidates_[k];
-    const auto [u, w, fu, fw, base] = project(cand.v, c, co, pose, s);
+    Projection projected = project(cand.v, c, co, pose, s);
+    shift_by_map_centroid(projected, map_centroids_, s);
+    const auto [u, w, fu, fw, base] = projected;
     if (!(base == cand.base)) {
       // The four F values depend only on the layer and the cells: cached until q leaves them.
       cand.F = interpolator_.corner_values(view_, cand.layer, base);
@@ -384,7 +401,9 @@ double ScanMatcher::cost_only(const PlanarPose& pose, std::size_t stride) const 
   double cost = 0.0;
   for (std::size_t k = 0; k < candidates_.size(); k += stride) {
     const Candidate& cand = candidates_[k];
-    const auto [u, w, fu, fw, base] = project(cand.v, c, co, pose, s);
+    Projection projected = project(cand.v, c, co, pose, s);
+    shift_by_map_centroid(projected, map_centroids_, s);
+    const auto [u, w, fu, fw, base] = projected;
     const std::array<float, 4> F = base == cand.base ? cand.F : interpolator_.corner_values(view_, cand.layer, base);
     const float r = 1.0F - bilinear(F, u - fu, w - fw, s).value;
     if (robust > 0.0F) {

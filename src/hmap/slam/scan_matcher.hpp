@@ -11,6 +11,7 @@
 #include "hmap/core/params.hpp"
 #include "hmap/maps/hmap.hpp"
 #include "hmap/maps/scan_hvoxels.hpp"
+#include "hmap/slam/cell_centroids.hpp"
 #include "hmap/slam/hvoxel_metric.hpp"
 
 namespace hmap::slam {
@@ -139,6 +140,12 @@ class ScanMatcher {
                                   ThinFallback thin_fallback = ThinFallback::kNone,
                                   const std::optional<MotionPrior>& prior = std::nullopt);
 
+  /// Where in its cell the map's surface lies (slam.hvoxel_centroids 2), for the matches that
+  /// follow; nullptr (the default): at the cells' centres. A scan HVoxel that lands in a cell with a
+  /// centroid is looked up that far the other way, so that the map's value sits at its centroid
+  /// (the offset of the cell it lands in, held while it stays there). Must outlive those matches.
+  void set_map_centroids(const CellCentroids* centroids) { map_centroids_ = centroids; }
+
   /// eq. (5) per HVoxel at ξ for the HVoxels selected by the last match() (for tests and tools).
   [[nodiscard]] double cost_at(const PlanarPose& pose);
 
@@ -191,7 +198,8 @@ class ScanMatcher {
   double reference_cost_ = 0.0;   // running mean of the final costs per HVoxel of the last matches
   std::optional<MotionPrior> prior_;  // of the match under way
   double prior_weight_ = 0.0;         // s² of MotionPrior for it
-  bool yaw_only_ = false;  // the match under way moves the yaw alone (ThinFallback::kHeading)
+  bool yaw_only_ = false;
+  const CellCentroids* map_centroids_ = nullptr;  // the match under way moves the yaw alone (ThinFallback::kHeading)
 };
 
 }  // namespace hmap::slam

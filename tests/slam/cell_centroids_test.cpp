@@ -1,0 +1,64 @@
+#include "hmap/slam/cell_centroids.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+#include "hmap/core/error.hpp"
+
+namespace hmap::slam {
+namespace {
+
+/// Two cells' HVoxels with their centroids set by hand (level frame, 0.5 m cells).
+ScanHVoxels hand_scan() {
+  ScanHVoxels s;
+  s.cells = {{{0, 0}, 0, 2}, {{3, -1}, 2, 1}};
+  s.hvoxels = {{0.0F, 0.1F, 4.0F, 0.5F},    // thin: left out
+               {0.5F, 2.5F, 3.0F, 0.5F},    // tall, 3 points at (0.1, 0.4)
+               {0.0F, 1.0F, 1.0F, 0.5F}};   // tall, 1 point at (1.7, -0.3)
+  s.centroids = {{0.25F, 0.25F}, {0.1F, 0.4F}, {1.7F, -0.3F}};
+  return s;
+}
+
+// By hand: moved by (10, 20) and turned 90°, (0.1, 0.4) goes to (9.6, 20.1), cell (19, 40) of
+// 0.5 m, centre (9.75, 20.25): offset (−0.15, −0.15); (1.7, −0.3) to (10.3, 21.7), cell (20, 43),
+// centre (10.25, 21.75): offset (0.05, −0.05). A second scan into the first cell weighs by points.
+TEST(CellCentroids, OffsetsByHand) {
+  CellCentroids c(0.5);
+  const ScanHVoxels scan = hand_scan();
+  c.add(scan, 10.0, 20.0, std::numbers::pi / 2.0, 0.3F);
+  ASSERT_EQ(c.size(), 2U);
+  const Eigen::Vector2f* a = c.offset({19, 40});
+  const Eigen::Vector2f* b = c.offset({20, 43});
+  ASSERT_NE(a, nullptr);
+  ASSERT_NE(b, nullptr);
+  EXPECT_NEAR(a->x(), -0.15, 1e-5);
+  EXPECT_NEAR(a->y(), -0.15, 1e-5);
+  EXPECT_NEAR(b->x(), 0.05, 1e-5);
+  EXPECT_NEAR(b->y(), -0.05, 1e-5);
+  EXPECT_EQ(c.offset({0, 0}), nullptr) << "the thin HVoxel's cell, and the level frame's, hold nothing";
+  // One point more at (9.9, 20.4) in the same cell: (3·(9.6, 20.1) + (9.9, 20.4)) / 4 = (9.675, 20.175).
+  ScanHVoxels one;
+  one.cells = {{{0, 0}, 0, 1}};
+  one.hvoxels = {{0.0F, 1.0F, 1.0F, 0.5F}};
+  one.centroids = {{9.9F, 20.4F}};
+  c.add(one, 0.0, 0.0, 0.0, 0.3F);
+  EXPECT_NEAR(c.offset({19, 40})->x(), 9.675 - 9.75, 1e-5);
+  EXPECT_NEAR(c.offset({19, 40})->y(), 20.175 - 20.25, 1e-5);
+}
+
+TEST(CellCentroids, AScanWithoutCentroidsAddsNothingAndABadCellIsRefused) {
+  CellCentroids c(0.2);
+  ScanHVoxels scan = hand_scan();
+  scan.centroids.clear();
+  c.add(scan, 0.0, 0.0, 0.0, 0.0F);
+  EXPECT_EQ(c.size(), 0U);
+  for (const double bad : {0.0, -0.1, std::nan(""), std::numeric_limits<double>::infinity()}) {
+    EXPECT_THROW(CellCentroids{bad}, Error) << bad;
+  }
+}
+
+}  // namespace
+}  // namespace hmap::slam
