@@ -57,7 +57,7 @@ HmapSlam::HmapSlam(const Params& params)
       wall_refiner_(params),
       wall_map_(params.map.cell_size, params.slam.wall_band_height),
       wall_scan_(params.map.cell_size, params.slam.wall_band_height) {
-  level_hvoxelizer_.keep_centroids(params_.slam.hvoxel_centroids != 0);
+  level_hvoxelizer_.keep_centroids(params_.slam.hvoxel_centroids >= 1);
 }
 
 namespace {
@@ -86,7 +86,6 @@ HmapSlam::HmapSlam(const Params& params, HMap map, const ContinueOptions& where)
       continuing_(where),
       map_as_given_(false) {
   level_hvoxelizer_.keep_centroids(params_.slam.hvoxel_centroids >= 1);
-  level_hvoxelizer_.keep_centroids(params_.slam.hvoxel_centroids != 0);
   const PlanarPose& g = where.guess;
   if (!(std::isfinite(g.x) && std::isfinite(g.y) && std::isfinite(g.yaw))) {
     throw Error("continuing a map: the first scan's guess must be finite");
