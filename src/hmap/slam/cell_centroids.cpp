@@ -27,7 +27,7 @@ void CellCentroids::add(const ScanHVoxels& scan, double x, double y, double yaw,
 void CellCentroids::add(double x, double y, double weight) {
   if (!(weight > 0.0) || !std::isfinite(x) || !std::isfinite(y)) return;
   const CellKey key{checked_floor<std::int32_t>(x / cell_, "a centroid's cell"), checked_floor<std::int32_t>(y / cell_, "a centroid's cell")};
-  Cell& cell = cells_.try_emplace(pack(key)).first->second;
+  Cell& cell = cells_.try_emplace(key).first->second;
   cell.sums += Eigen::Vector3d(weight * x, weight * y, weight);
   cell.offset = Eigen::Vector2f(static_cast<float>(cell.sums.x() / cell.sums.z() - (key.i + 0.5) * cell_),
                                 static_cast<float>(cell.sums.y() / cell.sums.z() - (key.j + 0.5) * cell_));

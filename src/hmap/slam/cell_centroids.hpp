@@ -5,7 +5,6 @@
 // centroids (ScanHVoxels::centroids) meets a map on the same footing.
 
 #include <Eigen/Core>
-#include <cstdint>
 #include <unordered_map>
 
 #include "hmap/maps/scan_hvoxels.hpp"
@@ -28,7 +27,7 @@ class CellCentroids {
   /// The offset [m] of the cell's centroid from the cell's centre, or nullptr for a cell nothing
   /// tall was merged into.
   [[nodiscard]] const Eigen::Vector2f* offset(const CellKey& key) const {
-    const auto it = cells_.find(pack(key));
+    const auto it = cells_.find(key);
     return it == cells_.end() ? nullptr : &it->second.offset;
   }
 
@@ -40,11 +39,8 @@ class CellCentroids {
     Eigen::Vector3d sums = Eigen::Vector3d::Zero();  // Σ n·x, Σ n·y, Σ n (map frame)
     Eigen::Vector2f offset = Eigen::Vector2f::Zero();
   };
-  [[nodiscard]] static std::uint64_t pack(const CellKey& k) {
-    return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(k.i)) << 32) | static_cast<std::uint32_t>(k.j);
-  }
   double cell_;
-  std::unordered_map<std::uint64_t, Cell> cells_;
+  std::unordered_map<CellKey, Cell, CellKeyHash> cells_;
 };
 
 }  // namespace hmap::slam
