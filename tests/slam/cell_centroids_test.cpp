@@ -3,6 +3,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
+#include <map>
+#include <random>
+#include <utility>
 #include <limits>
 #include <numbers>
 
@@ -58,6 +62,64 @@ TEST(CellCentroids, AScanWithoutCentroidsAddsNothingAndABadCellIsRefused) {
   for (const double bad : {0.0, -0.1, std::nan(""), std::numeric_limits<double>::infinity()}) {
     EXPECT_THROW(CellCentroids{bad}, Error) << bad;
   }
+}
+
+// The tiles hold what a hash map of cells would: random points over cells of every sign (tiles
+// cut at negative keys too), each cell's offset checked against a brute-force mean, and the view
+// over a window answers as the index does inside it, outside it, and for a tile made after reset.
+TEST(CellCentroids, TilesAndTheirViewAgreeWithABruteForceTwin) {
+  const double cell = 0.2;
+  CellCentroids c(cell);
+  std::map<std::pair<std::int32_t, std::int32_t>, Eigen::Vector3d> twin;  // Σ w·x, Σ w·y, Σ w
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> pos(-3.0, 3.0);
+  std::uniform_real_distribution<double> weight(0.5, 4.0);
+  for (int k = 0; k < 4000; ++k) {
+    const double x = pos(rng);
+    const double y = pos(rng);
+    const double w = weight(rng);
+    c.add(x, y, w);
+    const std::pair<std::int32_t, std::int32_t> key{static_cast<std::int32_t>(std::floor(x / cell)),
+                                                    static_cast<std::int32_t>(std::floor(y / cell))};
+    twin.try_emplace(key, Eigen::Vector3d::Zero()).first->second += Eigen::Vector3d(w * x, w * y, w);
+  }
+  c.add(1.0, 1.0, 0.0);  // no weight, no position: nothing
+  c.add(std::nan(""), 1.0, 1.0);
+  c.add(1.0, std::numeric_limits<double>::infinity(), 1.0);
+  ASSERT_EQ(c.size(), twin.size());
+  CellCentroids::View view;
+  view.reset(&c, {0, 0}, 6);  // tiles of cells −6..6: [−8, 8) in both axes
+  std::size_t inside = 0;
+  for (std::int32_t i = -16; i < 16; ++i) {
+    for (std::int32_t j = -16; j < 16; ++j) {
+      const auto it = twin.find({i, j});
+      const Eigen::Vector2f* got = c.offset({i, j});
+      ASSERT_EQ(view.offset({i, j}), got) << i << "," << j;
+      inside += std::abs(i) <= 6 && std::abs(j) <= 6 && got != nullptr ? 1U : 0U;
+      if (it == twin.end()) {
+        EXPECT_EQ(got, nullptr) << i << "," << j;
+        continue;
+      }
+      ASSERT_NE(got, nullptr) << i << "," << j;
+      const Eigen::Vector3d& t = it->second;
+      EXPECT_NEAR(got->x(), t.x() / t.z() - (i + 0.5) * cell, 1e-6) << i << "," << j;
+      EXPECT_NEAR(got->y(), t.y() / t.z() - (j + 0.5) * cell, 1e-6) << i << "," << j;
+      EXPECT_LE(std::abs(got->x()), 0.5 * cell + 1e-6);
+      EXPECT_LE(std::abs(got->y()), 0.5 * cell + 1e-6);
+    }
+  }
+  EXPECT_GT(inside, 100U);
+  // A tile made after the view: found through the index.
+  c.add(30.05, -30.05, 1.0);
+  const Eigen::Vector2f* late = view.offset({150, -151});
+  ASSERT_NE(late, nullptr);
+  EXPECT_NEAR(late->x(), 30.05 - 150.5 * cell, 1e-5);
+  EXPECT_NEAR(late->y(), -30.05 + 150.5 * cell, 1e-5);
+  // A view of nothing answers nothing.
+  CellCentroids::View none;
+  none.reset(nullptr, {0, 0}, 6);
+  EXPECT_EQ(none.offset({0, 0}), nullptr);
+  EXPECT_GT(c.bytes(), c.size() * 8U);
 }
 
 }  // namespace

@@ -1,5 +1,6 @@
 #include "hmap/slam/cell_centroids.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "hmap/core/checked.hpp"
@@ -25,12 +26,33 @@ void CellCentroids::add(const ScanHVoxels& scan, double x, double y, double yaw,
 }
 
 void CellCentroids::add(double x, double y, double weight) {
-  if (!(weight > 0.0) || !std::isfinite(x) || !std::isfinite(y)) return;
+  if (!(weight > 0.0) || !std::isfinite(weight) || !std::isfinite(x) || !std::isfinite(y)) return;
   const CellKey key{checked_floor<std::int32_t>(x / cell_, "a centroid's cell"), checked_floor<std::int32_t>(y / cell_, "a centroid's cell")};
-  Cell& cell = cells_.try_emplace(key).first->second;
-  cell.sums += Eigen::Vector3d(weight * x, weight * y, weight);
-  cell.offset = Eigen::Vector2f(static_cast<float>(cell.sums.x() / cell.sums.z() - (key.i + 0.5) * cell_),
-                                static_cast<float>(cell.sums.y() / cell.sums.z() - (key.j + 0.5) * cell_));
+  Tile& tile = tiles_.find_or_create(tile_of(key));
+  const std::size_t local = local_index(key);
+  Eigen::Vector3d& sums = tile.sums[local];
+  if (sums.z() == 0.0) ++cells_;
+  sums += Eigen::Vector3d(weight * x, weight * y, weight);
+  tile.offset[local] = Eigen::Vector2f(static_cast<float>(sums.x() / sums.z() - (key.i + 0.5) * cell_),
+                                       static_cast<float>(sums.y() / sums.z() - (key.j + 0.5) * cell_));
+}
+
+void CellCentroids::View::reset(const CellCentroids* source, const CellKey& center, std::int32_t half_cells) {
+  source_ = source;
+  tiles_wide_ = 0;
+  tiles_.clear();
+  if (source == nullptr) return;
+  const CellKey lo = tile_of({center.i - half_cells, center.j - half_cells});
+  const CellKey hi = tile_of({center.i + half_cells, center.j + half_cells});
+  tile_min_ = lo;
+  tiles_wide_ = std::max(hi.i - lo.i, hi.j - lo.j) + 1;
+  tiles_.assign(static_cast<std::size_t>(tiles_wide_) * static_cast<std::size_t>(tiles_wide_), nullptr);
+  for (std::int32_t ti = 0; ti < tiles_wide_; ++ti) {
+    for (std::int32_t tj = 0; tj < tiles_wide_; ++tj) {
+      tiles_[static_cast<std::size_t>(ti) * static_cast<std::size_t>(tiles_wide_) + static_cast<std::size_t>(tj)] =
+          source->tiles_.find({lo.i + ti, lo.j + tj});
+    }
+  }
 }
 
 }  // namespace hmap::slam

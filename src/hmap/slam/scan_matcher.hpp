@@ -144,7 +144,11 @@ class ScanMatcher {
   /// follow; nullptr (the default): at the cells' centres. A scan HVoxel that lands in a cell with a
   /// centroid is looked up that far the other way, so that the map's value sits at its centroid
   /// (the offset of the cell it lands in, held while it stays there). Must outlive those matches.
-  void set_map_centroids(const CellCentroids* centroids) { map_centroids_ = centroids; }
+  void set_map_centroids(const CellCentroids* centroids) {
+    map_centroids_ = centroids;
+    centroid_view_.reset(nullptr, {}, 0);  // match() makes it over its window
+    for (Candidate& c : candidates_) c.at = CellKey{INT32_MIN, INT32_MIN};  // cached offsets were of the old ones
+  }
 
   /// eq. (5) per HVoxel at ξ for the HVoxels selected by the last match() (for tests and tools).
   [[nodiscard]] double cost_at(const PlanarPose& pose);
@@ -155,6 +159,8 @@ class ScanMatcher {
     Interval layer;                    // widened to slam.min_layer_height
     CellKey base{INT32_MIN, INT32_MIN};  // cached: the cell (i0, j0) the F values belong to
     std::array<float, 4> F{};
+    CellKey at{INT32_MIN, INT32_MIN};  // cached: the map cell whose centroid offset is `offset`
+    Eigen::Vector2f offset = Eigen::Vector2f::Zero();  // [m] zero for a cell without a centroid
   };
   /// Drops the candidates whose cell and its eight neighbours (at `guess`) are not all in the map.
   void keep_inside_map(const HMap& map, const PlanarPose& guess);
@@ -199,7 +205,8 @@ class ScanMatcher {
   std::optional<MotionPrior> prior_;  // of the match under way
   double prior_weight_ = 0.0;         // s² of MotionPrior for it
   bool yaw_only_ = false;
-  const CellCentroids* map_centroids_ = nullptr;  // the match under way moves the yaw alone (ThinFallback::kHeading)
+  const CellCentroids* map_centroids_ = nullptr;
+  CellCentroids::View centroid_view_;  // map_centroids_' tiles in view_'s window  // the match under way moves the yaw alone (ThinFallback::kHeading)
 };
 
 }  // namespace hmap::slam
