@@ -602,6 +602,15 @@ TEST_F(HMapFileTest, FileWrittenBeforeTopNoiseLoadsWithItsDefault) {
   p.json = j.dump();
   std::ofstream(path, std::ios::binary | std::ios::trunc) << assemble(p);
   EXPECT_EQ(load_hmap(path).params().slam.hvoxel_centroids, SlamParams{}.hvoxel_centroids);
+  // And the walls' (b887c0f): maps saved between it and session 29 were refused.
+  for (const char* name : {"slam.wall_refine", "slam.wall_min_height", "slam.wall_band_height", "slam.wall_iterations",
+                           "slam.wall_min_pairs", "slam.wall_max_rotation"}) {
+    j.erase(name);
+  }
+  p.json = j.dump();
+  std::ofstream(path, std::ios::binary | std::ios::trunc) << assemble(p);
+  EXPECT_EQ(load_hmap(path).params().slam.wall_refine, SlamParams{}.wall_refine);
+  EXPECT_DOUBLE_EQ(load_hmap(path).params().slam.wall_band_height, SlamParams{}.wall_band_height);
   j.erase("slam.coarse_rotation");
   p.json = j.dump();
   std::ofstream(path, std::ios::binary | std::ios::trunc) << assemble(p);
