@@ -184,7 +184,7 @@ std::vector<ParamRef> param_refs(Params& p) {
   r.push_back(ref("slam.odometry_noise", "-", "odometry's sigma added per metre travelled and per radian turned",
                   s.odometry_noise, closed(0.0, 10.0)));
   r.push_back(ref_int("slam.hvoxel_centroids", "-",
-                      "0: match scan HVoxels at their cells' centres (the paper's eq. 6); 1: at their points' plan centroids; 2: the map's cells at their tall points' centroids too",
+                      "2: match scan HVoxels at their points' plan centroids and the map's cells at their tall points' centroids; 1: the scan's only; 0: at their cells' centres (the paper's eq. 6)",
                       s.hvoxel_centroids, closed(0.0, 2.0)));
   r.push_back(ref_int("slam.wall_refine", "-", "1: refine x, y and yaw against the map's walls after the planar match; 0: off",
                       s.wall_refine, closed(0.0, 1.0)));

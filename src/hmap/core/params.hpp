@@ -94,11 +94,13 @@ struct SlamParams {
   double odometry_sigma_rotation = 0.005;    ///< [rad] fixed part of σ in yaw, per scan
   double odometry_noise = 0.05;              ///< [-] σ added per metre travelled and per radian
                                              ///< turned (wheel odometry: 1-5 %)
-  int hvoxel_centroids = 0;                ///< [-] 0: scan HVoxels are matched at their cells' centres, as
-                                           ///< eq. (6) has it; 1: at their points' plan centroids (the map's
-                                           ///< still at its cells' centres: biased where a wall is parallel
-                                           ///< to the grid); 2: and the map's cells read at the centroids of
-                                           ///< the tall points merged into them (docs/SLAM.md "Session 28")
+  int hvoxel_centroids = 2;                ///< [-] 2 (default): scan HVoxels are matched at their points' plan
+                                           ///< centroids and the map's cells read at the centroids of the tall
+                                           ///< points merged into them (docs/SLAM.md "HVoxels at their
+                                           ///< points' centroids"); 1: the scan's only (the map's still at its
+                                           ///< cells' centres: biased where a wall is parallel to the grid);
+                                           ///< 0: at their cells' centres, as eq. (6) has it (the match leans
+                                           ///< toward poses where the scan's grid and the map's coincide)
   // Sub-cell refinement of x, y and yaw against the map's walls (slam/wall_refiner.hpp).
   int wall_refine = 0;                     ///< [-] 1: after the planar match, x, y and yaw are refined against
                                            ///< the lines of the map's tall HVoxels' points; 0: off (the
