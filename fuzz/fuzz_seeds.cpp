@@ -80,10 +80,15 @@ int main(int argc, char** argv) {
   hmap::Mapper mapper(params);
   const hmap::HMap empty(params);
   for (const auto& [points, pose] : input) mapper.integrate(points, pose);
+  // The real one with a few cell centroids (the version-3 section), as the SLAM saves them.
+  hmap::CellCentroids centroids(params.map.cell_size);
+  centroids.add(1.1, -2.3, 3.0);
+  centroids.add(-4.05, 0.2, 1.0);
+  centroids.add(-4.2, 0.1, 2.5);
   int n = 0;
   for (const hmap::HMap* map : {&empty, static_cast<const hmap::HMap*>(&mapper.map())}) {
     const fs::path file = out / "tmp.hmap";
-    hmap::save_hmap(file, *map);
+    hmap::save_hmap(file, *map, {}, nullptr, map == &empty ? nullptr : &centroids);
     const std::string bytes = hmap::detail::read_file_bytes(file);
     fs::remove(file);
     const std::size_t json = static_cast<std::size_t>(get_u64(bytes, 16));

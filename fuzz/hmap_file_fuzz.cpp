@@ -3,7 +3,7 @@
 // get through, so the first input byte picks how the rest is used (mod 3):
 //   0  the file as it is;
 //   1  the file with its last 8 bytes replaced by the right XXH64 (header and JSON fuzzed);
-//   2  an uncompressed payload, wrapped by the target into a valid version-2 file with the default
+//   2  an uncompressed payload, wrapped by the target into a valid version-3 file with the default
 //      parameters: zstd frame, sizes and checksum right (the payload decoder fuzzed).
 #include <xxhash.h>
 #include <zstd.h>
@@ -51,7 +51,7 @@ void append_checksum(std::string& file) { put_u64(file, XXH64(file.data(), file.
 std::string wrap_payload(std::string_view payload) {
   const std::string& json = default_params_json();
   std::string file("\x89HMAP\r\n\x1a", 8);
-  put_u32(file, 2);
+  put_u32(file, 3);
   put_u32(file, 0);
   put_u64(file, json.size());
   file += json;

@@ -203,13 +203,15 @@ void run_slam(const SlamOptions& o) {
 
   std::optional<slam::HmapSlam> holder;
   MapStats old_stats;
+  std::size_t old_centroids = 0;
   if (old) {
     old_stats = old->map.stats();
     slam::ContinueOptions where;
     if (!o.start.empty()) where.guess = {o.start[0], o.start[1], o.start[2] * std::numbers::pi / 180.0};
     where.search_translation = o.search;
     where.search_rotation = o.search_yaw_deg * std::numbers::pi / 180.0;
-    holder.emplace(params, std::move(old->map), where);
+    old_centroids = old->centroids ? old->centroids->size() : 0;
+    holder.emplace(params, std::move(old->map), where, std::move(old->centroids));
     params = holder->params();
     chosen_text.clear();  // what the first scan chose for the map is the saved map's now
   } else {
@@ -404,7 +406,9 @@ void run_slam(const SlamOptions& o) {
     write_poses_tum(dir / "poses_tum.txt", times, estimate);
     write_file_atomic(dir / "matches.csv", log);
     if (loops) write_file_atomic(dir / "loop_closures.csv", loop_log);
-    save_hmap(dir / "map.hmap", final_map);
+    // The cell centroids go with the map unless a loop closure rebuilt it: they were summed at
+    // the poses before the correction.
+    save_hmap(dir / "map.hmap", final_map, {}, nullptr, rebuilt ? nullptr : &slam.map_centroids());
     const render::HeightRange range = render::resolve_range(final_map, {});
     render::TopViewport vp;
     RgbImage picture = render::render_top(final_map, range, 2000, vp, 2.0);
@@ -444,8 +448,8 @@ void run_slam(const SlamOptions& o) {
       chosen_text.empty() ? "" : " Chosen from the first scan:", chosen_text.c_str(),
       imu ? (" IMU: " + std::to_string(imu_samples->size()) + " samples from " + imu_from + ".").c_str() : "", deskewed, n);
   if (old) {
-    std::printf("Continued %s (%zu cells, %zu HVoxels before; its parameters, cell %.3f m).", o.continue_from.c_str(),
-                old_stats.cells, old_stats.hvoxels, params.map.cell_size);
+    std::printf("Continued %s (%zu cells, %zu HVoxels, %zu cell centroids before; its parameters, cell %.3f m).",
+                o.continue_from.c_str(), old_stats.cells, old_stats.hvoxels, old_centroids, params.map.cell_size);
     if (relocalised) {
       const PlanarShift& at = relocalised->shift;
       std::printf(" The first scan was found at x %.3f m, y %.3f m, z %.3f m, yaw %.2f deg (coarse search of +-%g m, "

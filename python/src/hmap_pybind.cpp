@@ -121,6 +121,15 @@ class Map {
     return f(live_->mapper->map(), static_cast<const OccupancyGrid*>(nullptr), std::span<const GroundPatch>());
   }
 
+  /// The SLAM's cell centroids: those saved with a loaded map, or a live SLAM's (read them inside
+  /// read(), under its lock); null for a file without them or a mapper's map.
+  /// Those saved with a loaded map alone (no lock needed).
+  [[nodiscard]] const CellCentroids* file_centroids() const { return file_ && file_->centroids ? &*file_->centroids : nullptr; }
+  [[nodiscard]] const CellCentroids* centroids() const {
+    if (file_) return file_->centroids ? &*file_->centroids : nullptr;
+    return live_->slam ? &live_->slam->map_centroids() : nullptr;
+  }
+
  /// The live mapper whose lock read() takes; null for a loaded map.
   [[nodiscard]] const MapperBox* lock_owner() const { return live_.get(); }
 
@@ -151,11 +160,7 @@ decltype(auto) read_both(const Map& a, const Map& b, F&& f) {
 void save(const Map& m, const std::filesystem::path& path) {
   m.read([&](const HMap& map, const OccupancyGrid* grid, std::span<const GroundPatch> ground) {
     py::gil_scoped_release release;
-    if (grid == nullptr && ground.empty()) {
-      save_hmap(path, map);
-    } else {
-      save_hmap(path, map, ground, grid);
-    }
+    save_hmap(path, map, ground, grid, m.centroids());  // a SLAM's map keeps its centroids, as `hmap slam` saves it
   });
 }
 
@@ -605,7 +610,7 @@ py::dict slam_close_loops(PySlam& self, const py::function& read_scan) {
   r["tiles_kept"] = rebuilt.tiles_kept;
   d["rebuild"] = r;
   d["poses"] = poses_array(rebuilt.T_map_sensor);
-  d["map"] = Map(MapFile{std::move(rebuilt.map), {}, std::nullopt});
+  d["map"] = Map(MapFile{std::move(rebuilt.map), {}, std::nullopt, std::nullopt});
   return d;
 }
 
@@ -867,7 +872,7 @@ Map merge_maps(const Map& a, const Map& b, const std::array<double, 4>& shift_xy
   return read_both(a, b, [&](const HMap& map_a, const OccupancyGrid* grid_a, std::span<const GroundPatch> ground_a,
                              const HMap& map_b, const OccupancyGrid* grid_b, std::span<const GroundPatch> ground_b) {
     py::gil_scoped_release release;
-    MapFile out{HMap(map_a.params()), {}, std::nullopt};
+    MapFile out{HMap(map_a.params()), {}, std::nullopt, std::nullopt};
     merge_map(out.map, map_a);  // into an empty map: an exact copy
     if (moved) {
       merge_map(out.map, shifted_map(map_b, shift));
@@ -897,7 +902,7 @@ Map merge_maps(const Map& a, const Map& b, const std::array<double, 4>& shift_xy
 Map crop_map_of(const Map& m, const std::array<std::int32_t, 4>& tiles) {
   return m.read([&](const HMap& map, const OccupancyGrid*, std::span<const GroundPatch>) {
     py::gil_scoped_release release;
-    return Map(MapFile{crop_map(map, TileRange{tiles[0], tiles[1], tiles[2], tiles[3]}), {}, std::nullopt});
+    return Map(MapFile{crop_map(map, TileRange{tiles[0], tiles[1], tiles[2], tiles[3]}), {}, std::nullopt, std::nullopt});
   });
 }
 
@@ -1094,7 +1099,13 @@ PYBIND11_MODULE(_hmap, m) {
             merge_map(out, saved);  // into an empty map: an exact copy
             return out;
           });
-          box->slam.emplace(p, std::move(copy), where);
+          // The centroids saved with it (slam.hvoxel_centroids 2), copied: the Map stays as it was.
+          std::optional<CellCentroids> centroids;
+          if (const CellCentroids* saved = continue_map->file_centroids()) {
+            centroids.emplace(saved->cell_size());
+            saved->for_each([&](const CellKey& c, const Eigen::Vector2f& o, double w) { centroids->restore(c, o, w); });
+          }
+          box->slam.emplace(p, std::move(copy), where, std::move(centroids));
         } else {
           box->slam.emplace(p);
           // As `hmap slam`: off for a continued map, whose rebuild would lose what was saved.

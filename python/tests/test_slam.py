@@ -198,8 +198,11 @@ def test_slam_continues_a_saved_map_as_the_cli_does(tmp_path):
     assert steps[0]["relocalised"] is not None and steps[1]["relocalised"] is None
     assert all(s["matched"] for s in steps)
     np.testing.assert_allclose(cli_poses[:, :3, 3], whole[3:, :3, 3], atol=0.05)
-    # The saved map is built on, not changed: the loaded one still holds what it held.
+    # The saved map is built on, not changed: the loaded one still holds what it held, and saved
+    # again it is the same file, its cell centroids included (format version 3).
     assert slam.map.stats()["hvoxels"] > saved.stats()["hvoxels"]
+    saved.save(tmp_path / "A2.hmap")
+    assert (tmp_path / "A2.hmap").read_bytes() == (tmp_path / "A" / "map.hmap").read_bytes()
     with pytest.raises(hmap.Error, match="search"):
         hmap.slam.Slam(hmap.Params("outdoor"), continue_map=saved, search=25.0)
 

@@ -872,6 +872,15 @@ TEST_F(CliTest, SlamContinuesASavedMapInItsFrame) {
     EXPECT_NEAR(std::remainder(yaw - yaw_want, 2.0 * std::numbers::pi), 0.0, std::numbers::pi / 180.0) << k;
   }
   EXPECT_GT(load_hmap(dir_ / "s2" / "map.hmap").stats().hvoxels, load_hmap(dir_ / "s1" / "map.hmap").stats().hvoxels);
+  // The first session's cell centroids were saved with its map and continued (no loop was closed
+  // in either): the second map holds them and its own scans'.
+  const MapFile s1 = load_map_file(dir_ / "s1" / "map.hmap");
+  const MapFile s2 = load_map_file(dir_ / "s2" / "map.hmap");
+  ASSERT_TRUE(s1.centroids.has_value());
+  ASSERT_TRUE(s2.centroids.has_value());
+  EXPECT_GT(s1.centroids->size(), 100U);
+  EXPECT_GT(s2.centroids->size(), s1.centroids->size());
+  EXPECT_NE(two.out.find(std::to_string(s1.centroids->size()) + " cell centroids before"), std::string::npos) << two.out;
 
   // Bad combinations: one line, exit 2, nothing written.
   const std::string tail = second + " --out " + path("bad");

@@ -353,7 +353,7 @@ TEST_F(HMapFileTest, LayoutIsAsDocumented) {
   const std::string f = read_bytes(dir_ / "m.hmap");
   ASSERT_GE(f.size(), 48U);
   EXPECT_EQ(f.substr(0, 8), kMagic);
-  EXPECT_EQ(get_u32(f, 8), 2U);
+  EXPECT_EQ(get_u32(f, 8), 3U);
   EXPECT_EQ(get_u32(f, 12), 0U);
   const std::uint64_t json_size = get_u64(f, 16);
   const auto json = nlohmann::json::parse(f.substr(24, json_size));
@@ -367,9 +367,9 @@ TEST_F(HMapFileTest, LayoutIsAsDocumented) {
   const std::uint64_t compressed_size = get_u64(f, 32 + json_size);
   EXPECT_EQ(f.size(), 48 + json_size + compressed_size);
   EXPECT_EQ(get_u64(f, f.size() - 8), XXH64(f.data(), f.size() - 8, 0));
-  // Payload size: 8 + per stored tile (8 + one varint count per cell) + 16 per HVoxel, + the two
-  // empty counts of the ground and grid sections.
-  std::uint64_t expected = 8 + 16;
+  // Payload size: 8 + per stored tile (8 + one varint count per cell) + 16 per HVoxel, + the three
+  // empty counts of the ground, grid and centroid sections.
+  std::uint64_t expected = 8 + 24;
   map.for_each_tile([&](const CellKey&, const HMap::Tile& tile) {
     std::uint64_t tile_bytes = 8;
     bool stored = false;
@@ -898,9 +898,10 @@ TEST_F(HMapFileTest, VersionOneFilesHaveNoLayers) {
   EXPECT_EQ(f.map.stats().hvoxels, 4U);
   EXPECT_TRUE(f.ground.empty());
   EXPECT_FALSE(f.grid.has_value());
-  // Version 3 is from the future.
-  p.version = 3;
-  EXPECT_TRUE(rejected(dir_ / "v3.hmap", assemble(p), "unsupported format version 3"));
+  EXPECT_FALSE(f.centroids.has_value());
+  // Version 4 is from the future.
+  p.version = 4;
+  EXPECT_TRUE(rejected(dir_ / "v4.hmap", assemble(p), "unsupported format version 4"));
 }
 
 TEST_F(HMapFileTest, HybridSectionsAreChecked) {
@@ -912,6 +913,7 @@ TEST_F(HMapFileTest, HybridSectionsAreChecked) {
   ASSERT_TRUE(ok.grid.has_value());
   EXPECT_EQ(ok.grid->known_cells(), 2U);
   EXPECT_EQ(ok.grid->log_odds_at({7, 7}), -1.0F);
+  EXPECT_FALSE(ok.centroids.has_value()) << "a version-2 file has no centroid section";
 
   auto patches = kValidPatches;
   patches[1].parent = 1;
@@ -940,6 +942,107 @@ TEST_F(HMapFileTest, HybridSectionsAreChecked) {
   EXPECT_TRUE(rejected(path, v2_file(huge_grid), "occupancy tile count"));
   // A version-2 file must hold both sections.
   EXPECT_TRUE(rejected(path, v2_file(""), "ends early"));
+}
+
+// ---- version 3: the SLAM's cell centroids ----
+
+namespace {
+
+struct CentroidSpec {
+  std::int32_t i, j;
+  float ox, oy;
+  double weight;
+};
+
+std::string centroid_section_of(const std::vector<CentroidSpec>& cells) {
+  std::string s;
+  put_u64(s, cells.size());
+  for (const CentroidSpec& c : cells) {
+    put_i32(s, c.i);
+    put_i32(s, c.j);
+    put_f32(s, c.ox);
+    put_f32(s, c.oy);
+    put_f64(s, c.weight);
+  }
+  return s;
+}
+
+/// A version-3 file of the crafted tiles (the default cell, 0.25 m), no ground or grid, and `centroids`.
+std::string v3_file(const std::string& centroids) {
+  FileParts p = parts_with_payload(payload_of(kValidTiles) + sections_of({}, {}) + centroids);
+  p.version = 3;
+  return assemble(p);
+}
+
+}  // namespace
+
+// Saved and read back, every cell's offset and weight are as they were, bit for bit, and the file
+// saved again from what was read is the same file.
+TEST_F(HMapFileTest, CellCentroidsRoundTripExactly) {
+  const HMap map = handmade_map();
+  CellCentroids centroids(map.cell_size());
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> pos(-20.0, 20.0);
+  for (int k = 0; k < 500; ++k) centroids.add(pos(rng), pos(rng), 1.0 + k % 7);
+  centroids.restore({-1000000, 999999}, {0.05F, -0.05F}, 12.5);  // a half-cell offset, far out
+  save_hmap(dir_ / "c.hmap", map, {}, nullptr, &centroids);
+  const MapFile back = load_map_file(dir_ / "c.hmap");
+  ASSERT_TRUE(back.centroids.has_value());
+  ASSERT_EQ(back.centroids->size(), centroids.size());
+  EXPECT_EQ(back.centroids->cell_size(), map.cell_size());
+  std::size_t checked = 0;
+  centroids.for_each([&](const CellKey& cell, const Eigen::Vector2f& offset, double weight) {
+    const Eigen::Vector2f* got = back.centroids->offset(cell);
+    ASSERT_NE(got, nullptr) << cell.i << "," << cell.j;
+    EXPECT_EQ(*got, offset) << cell.i << "," << cell.j;
+    back.centroids->for_each([&](const CellKey& c, const Eigen::Vector2f&, double w) {
+      if (c == cell) {
+        EXPECT_EQ(w, weight) << cell.i << "," << cell.j;
+      }
+    });
+    ++checked;
+  });
+  EXPECT_EQ(checked, centroids.size());
+  save_hmap(dir_ / "c2.hmap", back.map, {}, nullptr, &*back.centroids);
+  EXPECT_EQ(read_bytes(dir_ / "c2.hmap"), read_bytes(dir_ / "c.hmap"));
+  // Without centroids the section is there and empty; with another cell size, nothing is written.
+  save_hmap(dir_ / "none.hmap", map);
+  const MapFile none = load_map_file(dir_ / "none.hmap");
+  ASSERT_TRUE(none.centroids.has_value());
+  EXPECT_EQ(none.centroids->size(), 0U);
+  const CellCentroids other(2.0 * map.cell_size());
+  EXPECT_THROW(save_hmap(dir_ / "x.hmap", map, {}, nullptr, &other), Error);
+  EXPECT_FALSE(std::filesystem::exists(dir_ / "x.hmap"));
+}
+
+TEST_F(HMapFileTest, CellCentroidSectionIsChecked) {
+  const auto path = dir_ / "bad.hmap";
+  // The valid crafted file loads (offsets within half a cell).
+  write_bytes(path, v3_file(centroid_section_of({{-3, 7, 0.01F, -0.05F, 2.0}, {-3, 8, 0.0F, 0.0F, 0.5}, {4, -9, 0.049F, 0.02F, 7.0}})));
+  const MapFile ok = load_map_file(path);
+  ASSERT_TRUE(ok.centroids.has_value());
+  EXPECT_EQ(ok.centroids->size(), 3U);
+  ASSERT_NE(ok.centroids->offset({-3, 7}), nullptr);
+  EXPECT_EQ(*ok.centroids->offset({-3, 7}), Eigen::Vector2f(0.01F, -0.05F));
+  EXPECT_EQ(ok.centroids->offset({0, 0}), nullptr);
+
+  EXPECT_TRUE(rejected(path, v3_file(centroid_section_of({{4, -9, 0.0F, 0.0F, 1.0}, {-3, 7, 0.0F, 0.0F, 1.0}})),
+                       "increasing key order"));
+  EXPECT_TRUE(rejected(path, v3_file(centroid_section_of({{-3, 7, 0.0F, 0.0F, 1.0}, {-3, 7, 0.0F, 0.0F, 1.0}})),
+                       "increasing key order"));
+  EXPECT_TRUE(rejected(path, v3_file(centroid_section_of({{0, 0, 0.2F, 0.0F, 1.0}})), "half a cell"));
+  EXPECT_TRUE(rejected(path, v3_file(centroid_section_of({{0, 0, 0.0F, std::numeric_limits<float>::quiet_NaN(), 1.0}})),
+                       "half a cell"));
+  EXPECT_TRUE(rejected(path, v3_file(centroid_section_of({{0, 0, 0.0F, 0.0F, 0.0}})), "positive, finite weight"));
+  EXPECT_TRUE(rejected(path, v3_file(centroid_section_of({{0, 0, 0.0F, 0.0F, std::numeric_limits<double>::infinity()}})),
+                       "positive, finite weight"));
+  EXPECT_TRUE(rejected(path, v3_file(centroid_section_of({{1 << 30, 0, 0.0F, 0.0F, 1.0}})), "cell keys"));
+  // An absurd count is refused from the bytes that remain, before any allocation.
+  std::string huge;
+  put_u64(huge, std::uint64_t{1} << 40);
+  EXPECT_TRUE(rejected(path, v3_file(huge), "cell centroid count"));
+  // A version-3 file must hold the section.
+  EXPECT_TRUE(rejected(path, v3_file(""), "ends early"));
 }
 
 }  // namespace hmap

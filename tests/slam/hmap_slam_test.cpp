@@ -76,11 +76,12 @@ Params yard_params() {
 
 TEST(HmapSlam, FollowsASimulatedDrive) {
   // Six HDL-64 scans 8 cm apart (the first step, with no velocity yet, within the basin) along a gentle curve in a walled yard, constant velocity as
-  // the only prior: every pose within 3 cm and 0.3° of the truth; the same with the scan HVoxels
-  // matched at their points' centroids (slam.hvoxel_centroids), whose poses are their own.
+  // the only prior: every pose within 3 cm and 0.3° of the truth, with the scan HVoxels at their
+  // cells' centres (slam.hvoxel_centroids 0), at their points' centroids (1) and with the map's
+  // cells read at theirs too (2, the default); the poses of 1 and 2 are their own.
   const sim::Scene scene = yard();
   std::vector<PlanarPose> at_centres;
-  for (const int centroids : {0, 1}) {
+  for (const int centroids : {0, 1, 2}) {
     Params params = yard_params();
     params.slam.hvoxel_centroids = centroids;
     HmapSlam slam(params);
@@ -91,7 +92,9 @@ TEST(HmapSlam, FollowsASimulatedDrive) {
       const PointCloud scan = lidar.scan(scene, compose(truth, att), 0.1 * k).points_sensor;
       const SlamStep step = slam.process(scan, std::optional<Attitude>(att));
       if (centroids == 0) at_centres.push_back(planar_of(step.T_map_sensor));
-      if (centroids == 1 && k > 0) EXPECT_NE(planar_of(step.T_map_sensor).x, at_centres[static_cast<std::size_t>(k)].x) << k;
+      if (centroids > 0 && k > 0) {
+        EXPECT_NE(planar_of(step.T_map_sensor).x, at_centres[static_cast<std::size_t>(k)].x) << k;
+      }
       EXPECT_EQ(step.matched, k > 0);
       const PlanarPose est = planar_of(step.T_map_sensor);
       EXPECT_NEAR(est.x, truth.x, 0.03) << k;

@@ -51,10 +51,11 @@ bool is_later_parameter(const std::string& name) {
 }
 
 constexpr std::array<unsigned char, 8> kMagic = {0x89, 'H', 'M', 'A', 'P', '\r', '\n', 0x1a};
-constexpr std::uint32_t kVersion = 2;
+constexpr std::uint32_t kVersion = 3;
 constexpr std::uint32_t kOldestVersion = 1;
 constexpr std::uint64_t kPatchBytes = 7 * 8 + 4;
 constexpr std::uint64_t kGridTileBytes = 8 + 4 * OccupancyGrid::kTileCells;
+constexpr std::uint64_t kCentroidBytes = 4 + 4 + 4 + 4 + 8;  // i, j, offset x, y, weight
 constexpr std::int32_t kGridTileKeyLimit = std::int32_t{1} << (30 - OccupancyGrid::kTileBits);
 constexpr std::size_t kJsonOffset = 24;                 // after magic, version, flags, J
 constexpr std::size_t kMinFileBytes = kJsonOffset + 24;  // + U, C, checksum: J = C = 0
@@ -65,6 +66,7 @@ constexpr std::uint64_t kHVoxelBytes = 16;
 constexpr std::uint64_t kMinTileBytes = 8 + HMap::kTileCells + kHVoxelBytes;
 /// Tiles hold cells within ±2^30 (HMap::kMaxKey), so tile_i · 16 cannot overflow an int32.
 constexpr std::int32_t kTileKeyLimit = std::int32_t{1} << (30 - HMap::kTileBits);
+constexpr std::int32_t kCellKeyLimit = std::int32_t{1} << 30;  // the HMAP's tiles' cells (kTileKeyLimit)
 constexpr int kZstdLevel = 3;  // zstd's default: level 3 windows are at most 2^21 bytes
 /// Frames asking for a larger window are refused on reading, so a hostile frame header cannot
 /// make the decoder allocate more than 8 MiB.
@@ -186,6 +188,36 @@ std::string hybrid_sections(std::span<const GroundPatch> ground, const std::vect
     put_u32(out, static_cast<std::uint32_t>(key.i));
     put_u32(out, static_cast<std::uint32_t>(key.j));
     for (const float l : tile->log_odds) put_f32(out, l);
+  }
+  return out;
+}
+
+/// The version-3 section after the grid: the cell centroids in increasing (i, j) order.
+std::string centroid_section(const CellCentroids* centroids) {
+  struct Entry {
+    CellKey cell;
+    Eigen::Vector2f offset;
+    double weight;
+  };
+  std::vector<Entry> cells;
+  if (centroids != nullptr) {
+    cells.reserve(centroids->size());
+    centroids->for_each([&cells](const CellKey& cell, const Eigen::Vector2f& offset, double weight) {
+      cells.push_back({cell, offset, weight});
+    });
+  }
+  std::sort(cells.begin(), cells.end(), [](const Entry& a, const Entry& b) {
+    return a.cell.i < b.cell.i || (a.cell.i == b.cell.i && a.cell.j < b.cell.j);
+  });
+  std::string out;
+  out.reserve(8 + cells.size() * kCentroidBytes);
+  put_u64(out, cells.size());
+  for (const Entry& e : cells) {
+    put_u32(out, static_cast<std::uint32_t>(e.cell.i));
+    put_u32(out, static_cast<std::uint32_t>(e.cell.j));
+    put_f32(out, e.offset.x());
+    put_f32(out, e.offset.y());
+    put_f64(out, e.weight);
   }
   return out;
 }
@@ -405,6 +437,7 @@ class PayloadReader {
     return get_u64(b.data());
   }
   float f32() { return std::bit_cast<float>(u32()); }
+  double f64() { return std::bit_cast<double>(u64()); }
 
   /// Unsigned LEB128 in its shortest form.
   std::uint64_t varint() {
@@ -628,14 +661,59 @@ std::optional<OccupancyGrid> read_grid(PayloadReader& in, const Params& params) 
   return grid;
 }
 
+CellCentroids read_centroids(PayloadReader& in, double cell_size) {
+  const std::uint64_t at = in.position();
+  const std::uint64_t count = in.u64();
+  if (count > in.remaining() / kCentroidBytes) {
+    throw in.error(at, "cell centroid count " + std::to_string(count) + " cannot fit in the " +
+                           std::to_string(in.remaining()) + " payload bytes that remain");
+  }
+  CellCentroids centroids(cell_size);
+  // Saved offsets are float32 means of points within their cell: allow their rounding only.
+  const double half = 0.5 * cell_size * (1.0 + 1e-5);
+  std::optional<CellKey> previous;
+  for (std::uint64_t k = 0; k < count; ++k) {
+    const std::uint64_t cell_at = in.position();
+    const CellKey cell{static_cast<std::int32_t>(in.u32()), static_cast<std::int32_t>(in.u32())};
+    const std::string cell_name = "cell centroid (" + std::to_string(cell.i) + ", " + std::to_string(cell.j) + ")";
+    if (cell.i < -kCellKeyLimit || cell.i >= kCellKeyLimit || cell.j < -kCellKeyLimit || cell.j >= kCellKeyLimit) {
+      throw in.error(cell_at, cell_name + ": expected cell keys in [-2^30, 2^30)");
+    }
+    if (previous && (previous->i > cell.i || (previous->i == cell.i && previous->j >= cell.j))) {
+      throw in.error(cell_at, cell_name + ": expected cells in increasing key order, each once");
+    }
+    previous = cell;
+    const float ox = in.f32();
+    const float oy = in.f32();
+    const double weight = in.f64();
+    if (!std::isfinite(ox) || !std::isfinite(oy) || std::abs(ox) > half || std::abs(oy) > half) {
+      throw in.error(cell_at + 8, cell_name + ": expected an offset within half a cell of its centre");
+    }
+    if (!(weight > 0.0) || !std::isfinite(weight)) {
+      throw in.error(cell_at + 16, cell_name + ": expected a positive, finite weight");
+    }
+    const float limit = static_cast<float>(0.5 * cell_size);  // restore()'s bound; the rounding allowed above
+    centroids.restore(cell, {std::clamp(ox, -limit, limit), std::clamp(oy, -limit, limit)}, weight);
+  }
+  return centroids;
+}
+
 }  // namespace
 
 void save_hmap(const std::filesystem::path& path, const HMap& map) { save_hmap(path, map, {}, nullptr); }
 
 void save_hmap(const std::filesystem::path& path, const HMap& map, std::span<const GroundPatch> ground,
                const OccupancyGrid* grid) {
+  save_hmap(path, map, ground, grid, nullptr);
+}
+
+void save_hmap(const std::filesystem::path& path, const HMap& map, std::span<const GroundPatch> ground,
+               const OccupancyGrid* grid, const CellCentroids* centroids) {
   if (grid != nullptr && grid->cell_size() != map.cell_size()) {
     throw Error("cannot save " + path.string() + ": the occupancy grid's cell size differs from the map's");
+  }
+  if (centroids != nullptr && centroids->cell_size() != map.cell_size()) {
+    throw Error("cannot save " + path.string() + ": the cell centroids' cell size differs from the map's");
   }
   for (std::size_t k = 0; k < ground.size(); ++k) {
     if (ground[k].parent < -1 || ground[k].parent >= static_cast<int>(k)) {
@@ -645,9 +723,9 @@ void save_hmap(const std::filesystem::path& path, const HMap& map, std::span<con
   }
   // Everything happens inside the writer: on any error the old file stays and no temporary is
   // left, and hmap::Error messages get the path.
-  write_file_atomic(path, [&map, ground, grid](std::ostream& out) {
+  write_file_atomic(path, [&map, ground, grid, centroids](std::ostream& out) {
     const std::vector<TileRef> tiles = sorted_nonempty_tiles(map);
-    const std::string sections = hybrid_sections(ground, sorted_grid_tiles(grid));
+    const std::string sections = hybrid_sections(ground, sorted_grid_tiles(grid)) + centroid_section(centroids);
     std::uint64_t payload_size = 8 + sections.size();
     for (const auto& [key, tile] : tiles) payload_size += tile_bytes(*tile);
     if (payload_size > kMaxPayloadBytes) {
@@ -760,11 +838,12 @@ MapFile load_map_file(const std::filesystem::path& path) {
   PayloadReader payload(name, bytes.subspan(payload_at, static_cast<std::size_t>(compressed_size)),
                         payload_size, payload_at);
   read_tiles(payload, map);
-  MapFile result{std::move(map), {}, std::nullopt};
+  MapFile result{std::move(map), {}, std::nullopt, std::nullopt};
   if (version >= 2) {
     result.ground = read_ground(payload);
     result.grid = read_grid(payload, result.map.params());
   }
+  if (version >= 3) result.centroids = read_centroids(payload, result.map.cell_size());
   payload.finish();
   return result;
 }

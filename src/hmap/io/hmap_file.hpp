@@ -1,13 +1,14 @@
 #pragma once
 // The native `.hmap` map file: the parameters a map was built with and every HVoxel, exact.
 //
-// Layout, version 2 (version 1, the same without the ground and grid sections, is still read). Integers are little-endian; offsets in bytes, J = JSON length, C = compressed
+// Layout, version 3 (version 2, the same without the cell centroids, and version 1, without the
+// ground and grid sections too, are still read). Integers are little-endian; offsets in bytes, J = JSON length, C = compressed
 // payload length; the whole file is 48 + J + C bytes.
 //
 //   offset       size  field
 //   0            8     magic 89 48 4D 41 50 0D 0A 1A ("\x89HMAP\r\n\x1a": the high bit, CR-LF and
 //                      ^Z catch transfers that strip bits or convert line ends, as in PNG)
-//   8            4     uint32 format version = 2
+//   8            4     uint32 format version = 3
 //   12           4     uint32 flags = 0 (no flag is defined; readers reject any other value)
 //   16           8     uint64 J
 //   24           J     params JSON, UTF-8: one object holding "format": "hmap", "tile_size": 16 and
@@ -33,6 +34,12 @@
 //     int32 tile_i, int32 tile_j      tile (a, b) holds cells [8a, 8a + 8) × [8b, 8b + 8)
 //     64 float32 log-odds             cell (i, j) at 8 · (i mod 8) + (j mod 8); NaN = unknown,
 //                                     others within the clamping bounds of the parameters
+//   (version 3 only, possibly empty:)
+//   uint64 cell centroid count K, then K cells in increasing (i, j) order, each once:
+//     int32 i, int32 j                the cell
+//     2 float32 offset                [m] of the centroid of the tall points merged into the cell
+//                                     from its centre, each within half a cell (CellCentroids)
+//     float64 weight                  > 0, the points behind it
 //
 // The writer's output is a function of the map alone: identical maps give identical bytes.
 // The reader checks the checksum before decompressing, and decodes the payload a zstd block at a
@@ -45,6 +52,7 @@
 #include <vector>
 
 #include "hmap/ground/ground_patches.hpp"
+#include "hmap/maps/cell_centroids.hpp"
 #include "hmap/maps/hmap.hpp"
 #include "hmap/occupancy/occupancy_grid.hpp"
 
@@ -56,6 +64,9 @@ struct MapFile {
   HMap map;
   std::vector<GroundPatch> ground;
   std::optional<OccupancyGrid> grid;
+  /// Where in its cell the map's surface lies (the SLAM's CellCentroids); absent before version 3,
+  /// possibly empty from it (a map not made by the SLAM, or one whose loops were closed).
+  std::optional<CellCentroids> centroids;
 };
 
 /// Writes `map` to `path` in the `.hmap` format, atomically (readers see the old file or the
@@ -65,6 +76,10 @@ void save_hmap(const std::filesystem::path& path, const HMap& map);
 /// cell size must be the map's.
 void save_hmap(const std::filesystem::path& path, const HMap& map, std::span<const GroundPatch> ground,
                const OccupancyGrid* grid);
+/// The same with the SLAM's cell centroids (may be null: none saved). Their cell size must be the
+/// map's.
+void save_hmap(const std::filesystem::path& path, const HMap& map, std::span<const GroundPatch> ground,
+               const OccupancyGrid* grid, const CellCentroids* centroids);
 
 /// Reads a `.hmap` file. Every field is checked before it is used and nothing is allocated from a
 /// size the file claims before the claim is verified: a damaged or hostile file gives

@@ -3,6 +3,7 @@
 // table of (key, slot) pairs, tiles kept densely in insertion order. A map holds thousands of
 // tiles, so the table stays in cache; lookups are a hash and a probe or two.
 
+#include <algorithm>
 #include <cstdint>
 #include <limits>
 #include <memory>
@@ -11,6 +12,26 @@
 #include "hmap/core/types.hpp"
 
 namespace hmap {
+
+/// The tiles of the square of cells within `half_cells` of `center` (tiles of 2^tile_bits cells per
+/// edge), row by row in `tiles`, nullptr where find(tile key) has none; `tile_min` is the square's
+/// lowest tile and `tiles_wide` its width in tiles. For views that index a window of tiles without
+/// a hash lookup per cell.
+template <typename Tile, typename Find>
+void tile_window(const CellKey& center, std::int32_t half_cells, int tile_bits, Find&& find, CellKey& tile_min,
+                 std::int32_t& tiles_wide, std::vector<const Tile*>& tiles) {
+  const CellKey lo{(center.i - half_cells) >> tile_bits, (center.j - half_cells) >> tile_bits};
+  const CellKey hi{(center.i + half_cells) >> tile_bits, (center.j + half_cells) >> tile_bits};
+  tile_min = lo;
+  tiles_wide = std::max(hi.i - lo.i, hi.j - lo.j) + 1;
+  tiles.assign(static_cast<std::size_t>(tiles_wide) * static_cast<std::size_t>(tiles_wide), nullptr);
+  for (std::int32_t ti = 0; ti < tiles_wide; ++ti) {
+    for (std::int32_t tj = 0; tj < tiles_wide; ++tj) {
+      tiles[static_cast<std::size_t>(ti) * static_cast<std::size_t>(tiles_wide) + static_cast<std::size_t>(tj)] =
+          find(CellKey{lo.i + ti, lo.j + tj});
+    }
+  }
+}
 
 template <typename Tile>
 class TileIndex {

@@ -73,7 +73,7 @@ Params continued_params(const Params& params, const HMap& map) {
 
 }  // namespace
 
-HmapSlam::HmapSlam(const Params& params, HMap map, const ContinueOptions& where)
+HmapSlam::HmapSlam(const Params& params, HMap map, const ContinueOptions& where, std::optional<CellCentroids> centroids)
     : params_(continued_params(params, map)),
       mapper_(std::move(map)),
       matcher_(params_),
@@ -97,6 +97,13 @@ HmapSlam::HmapSlam(const Params& params, HMap map, const ContinueOptions& where)
     throw Error(format("continuing a map: the yaw search half-width %g rad is outside [0, pi]", where.search_rotation));
   }
   last_ = previous_ = g;
+  if (centroids) {
+    if (centroids->cell_size() != params_.map.cell_size) {
+      throw Error(format("continuing a map: its cell centroids are for %g m cells, the map's are %g m", centroids->cell_size(),
+                         params_.map.cell_size));
+    }
+    map_centroids_ = std::move(*centroids);
+  }
 }
 
 void HmapSlam::start_with_up(const Eigen::Vector3d& up_sensor) {

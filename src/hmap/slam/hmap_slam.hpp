@@ -89,8 +89,10 @@ class HmapSlam {
   /// map by align_maps (a coarse search of `where`'s window about its guess, z from the floors),
   /// then matched as every later scan is; with a constant-velocity start from there. Throws
   /// hmap::Error for an empty map, invalid parameters or a search window out of range; process()
-  /// throws when the first scan has no column over the map at the guess.
-  HmapSlam(const Params& params, HMap map, const ContinueOptions& where);
+  /// throws when the first scan has no column over the map at the guess. `centroids`: the map's
+  /// cell centroids as saved with it (MapFile::centroids; slam.hvoxel_centroids 2), else the
+  /// continued session starts without them; their cell must be the map's.
+  HmapSlam(const Params& params, HMap map, const ContinueOptions& where, std::optional<CellCentroids> centroids = std::nullopt);
 
   /// Matches `points_sensor` against the map from `guess` (nothing: constant velocity from the
   /// last two estimates), then integrates it at the estimate. The first scan is integrated at
@@ -140,6 +142,9 @@ class HmapSlam {
   [[nodiscard]] PlanarPose predict() const;
 
   [[nodiscard]] const HMap& map() const { return mapper_.map(); }
+  /// Where in its cell the map's surface lies (slam.hvoxel_centroids 2; empty otherwise): for
+  /// saving with the map (save_hmap) while map_holds_scans_as_given or the map was not rebuilt.
+  [[nodiscard]] const CellCentroids& map_centroids() const { return map_centroids_; }
   /// The parameters in force (a continued map's own map parameters with the given slam.*).
   [[nodiscard]] const Params& params() const { return params_; }
   [[nodiscard]] std::size_t scans() const { return scans_; }

@@ -44,17 +44,8 @@ LayerMatch match_layer(const Interval& layer, std::span<const HVoxel> column, fl
 
 void LocalMapView::reset(const HMap& map, const CellKey& center, std::int32_t half_cells) {
   map_ = &map;
-  const CellKey lo = HMap::tile_of({center.i - half_cells, center.j - half_cells});
-  const CellKey hi = HMap::tile_of({center.i + half_cells, center.j + half_cells});
-  tile_min_ = lo;
-  tiles_wide_ = std::max(hi.i - lo.i, hi.j - lo.j) + 1;
-  tiles_.assign(static_cast<std::size_t>(tiles_wide_) * static_cast<std::size_t>(tiles_wide_), nullptr);
-  for (std::int32_t ti = 0; ti < tiles_wide_; ++ti) {
-    for (std::int32_t tj = 0; tj < tiles_wide_; ++tj) {
-      tiles_[static_cast<std::size_t>(ti) * static_cast<std::size_t>(tiles_wide_) + static_cast<std::size_t>(tj)] =
-          map.find_tile({lo.i + ti, lo.j + tj});
-    }
-  }
+  tile_window<HMap::Tile>(center, half_cells, HMap::kTileBits, [&map](const CellKey& t) { return map.find_tile(t); }, tile_min_,
+                          tiles_wide_, tiles_);
 }
 
 LayerInterpolator::LayerInterpolator(const Params& params)

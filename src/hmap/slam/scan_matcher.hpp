@@ -11,7 +11,7 @@
 #include "hmap/core/params.hpp"
 #include "hmap/maps/hmap.hpp"
 #include "hmap/maps/scan_hvoxels.hpp"
-#include "hmap/slam/cell_centroids.hpp"
+#include "hmap/maps/cell_centroids.hpp"
 #include "hmap/slam/hvoxel_metric.hpp"
 
 namespace hmap::slam {
@@ -204,9 +204,9 @@ class ScanMatcher {
   double reference_cost_ = 0.0;   // running mean of the final costs per HVoxel of the last matches
   std::optional<MotionPrior> prior_;  // of the match under way
   double prior_weight_ = 0.0;         // s² of MotionPrior for it
-  bool yaw_only_ = false;
-  const CellCentroids* map_centroids_ = nullptr;
-  CellCentroids::View centroid_view_;  // map_centroids_' tiles in view_'s window  // the match under way moves the yaw alone (ThinFallback::kHeading)
+  bool yaw_only_ = false;  // the match under way moves the yaw alone (ThinFallback::kHeading)
+  const CellCentroids* map_centroids_ = nullptr;  // set_map_centroids
+  CellCentroids::View centroid_view_;             // map_centroids_' tiles in view_'s window
 };
 
 }  // namespace hmap::slam

@@ -1,4 +1,4 @@
-#include "hmap/slam/cell_centroids.hpp"
+#include "hmap/maps/cell_centroids.hpp"
 
 #include <gtest/gtest.h>
 
@@ -12,7 +12,7 @@
 
 #include "hmap/core/error.hpp"
 
-namespace hmap::slam {
+namespace hmap {
 namespace {
 
 /// Two cells' HVoxels with their centroids set by hand (level frame, 0.5 m cells).
@@ -123,4 +123,4 @@ TEST(CellCentroids, TilesAndTheirViewAgreeWithABruteForceTwin) {
 }
 
 }  // namespace
-}  // namespace hmap::slam
+}  // namespace hmap

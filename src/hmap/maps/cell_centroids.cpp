@@ -1,13 +1,12 @@
-#include "hmap/slam/cell_centroids.hpp"
+#include "hmap/maps/cell_centroids.hpp"
 
-#include <algorithm>
 #include <cmath>
 
 #include "hmap/core/checked.hpp"
 #include "hmap/core/error.hpp"
 #include "hmap/core/format.hpp"
 
-namespace hmap::slam {
+namespace hmap {
 
 CellCentroids::CellCentroids(double cell_size) : cell_(cell_size) {
   if (!(cell_size > 0.0) || !std::isfinite(cell_size)) throw Error(format("cell centroids: the cell %g m is not positive", cell_size));
@@ -37,22 +36,33 @@ void CellCentroids::add(double x, double y, double weight) {
                                        static_cast<float>(sums.y() / sums.z() - (key.j + 0.5) * cell_));
 }
 
+void CellCentroids::restore(const CellKey& cell, const Eigen::Vector2f& offset, double weight) {
+  const float half = static_cast<float>(0.5 * cell_);
+  if (!offset.allFinite() || std::abs(offset.x()) > half || std::abs(offset.y()) > half) {
+    throw Error(format("cell centroids: cell (%d, %d)'s offset (%g, %g) m is not within half a cell (%g m)", cell.i, cell.j,
+                       static_cast<double>(offset.x()), static_cast<double>(offset.y()), static_cast<double>(half)));
+  }
+  if (!(weight > 0.0) || !std::isfinite(weight)) {
+    throw Error(format("cell centroids: cell (%d, %d)'s weight %g is not positive and finite", cell.i, cell.j, weight));
+  }
+  Tile& tile = tiles_.find_or_create(tile_of(cell));
+  const std::size_t local = local_index(cell);
+  if (in(tile, local) != nullptr) throw Error(format("cell centroids: cell (%d, %d) has a centroid already", cell.i, cell.j));
+  ++cells_;
+  // The sums a centroid at the offset would have; the offset itself as given, so that it reads
+  // back exactly.
+  tile.sums[local] = Eigen::Vector3d(weight * ((cell.i + 0.5) * cell_ + static_cast<double>(offset.x())),
+                                     weight * ((cell.j + 0.5) * cell_ + static_cast<double>(offset.y())), weight);
+  tile.offset[local] = offset;
+}
+
 void CellCentroids::View::reset(const CellCentroids* source, const CellKey& center, std::int32_t half_cells) {
   source_ = source;
   tiles_wide_ = 0;
   tiles_.clear();
   if (source == nullptr) return;
-  const CellKey lo = tile_of({center.i - half_cells, center.j - half_cells});
-  const CellKey hi = tile_of({center.i + half_cells, center.j + half_cells});
-  tile_min_ = lo;
-  tiles_wide_ = std::max(hi.i - lo.i, hi.j - lo.j) + 1;
-  tiles_.assign(static_cast<std::size_t>(tiles_wide_) * static_cast<std::size_t>(tiles_wide_), nullptr);
-  for (std::int32_t ti = 0; ti < tiles_wide_; ++ti) {
-    for (std::int32_t tj = 0; tj < tiles_wide_; ++tj) {
-      tiles_[static_cast<std::size_t>(ti) * static_cast<std::size_t>(tiles_wide_) + static_cast<std::size_t>(tj)] =
-          source->tiles_.find({lo.i + ti, lo.j + tj});
-    }
-  }
+  tile_window<Tile>(center, half_cells, kTileBits, [source](const CellKey& t) { return source->tiles_.find(t); }, tile_min_,
+                    tiles_wide_, tiles_);
 }
 
-}  // namespace hmap::slam
+}  // namespace hmap

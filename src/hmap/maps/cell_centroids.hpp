@@ -2,7 +2,8 @@
 // Where in its cell the map's surface lies (slam.hvoxel_centroids = 2): the plan centroid of the
 // points of the tall HVoxels merged into each cell. The HMAP keeps a cell's heights, not where in
 // the cell its points were; the SLAM keeps this beside it, so that a scan matched at its points'
-// centroids (ScanHVoxels::centroids) meets a map on the same footing.
+// centroids (ScanHVoxels::centroids) meets a map on the same footing, and the `.hmap` file saves it
+// with the map (format version 3) for a session that continues it.
 //
 // Stored like the HMAP: tiles of 8 × 8 cells found through a TileIndex (open addressing), each cell
 // 32 bytes (its offset and its weighted sums). The matcher looks an offset up per scan HVoxel
@@ -18,7 +19,7 @@
 #include "hmap/maps/scan_hvoxels.hpp"
 #include "hmap/maps/tile_index.hpp"
 
-namespace hmap::slam {
+namespace hmap {
 
 class CellCentroids {
  public:
@@ -84,6 +85,26 @@ class CellCentroids {
     std::vector<const Tile*> tiles_;  // row by row, nullptr where the source had none
   };
 
+  /// Sets a cell's centroid as saved: `offset` [m] from its centre (each component within half a
+  /// cell), the sum of the points' weights `weight` behind it; later adds weigh against it.
+  /// Throws hmap::Error for a cell that already has one, a non-finite or outlying offset, or a
+  /// weight that is not positive and finite.
+  void restore(const CellKey& cell, const Eigen::Vector2f& offset, double weight);
+
+  /// Calls f(cell, offset, weight) for every cell with a centroid: tiles in the order they were
+  /// made, cells within a tile by HMap::local_index.
+  template <typename F>
+  void for_each(F&& f) const {
+    tiles_.for_each([&](const CellKey& tile_key, const Tile& tile) {
+      for (std::size_t local = 0; local < static_cast<std::size_t>(kTileCells); ++local) {
+        if (in(tile, local) == nullptr) continue;
+        const CellKey cell{(tile_key.i << kTileBits) + static_cast<std::int32_t>(local >> kTileBits),
+                           (tile_key.j << kTileBits) + static_cast<std::int32_t>(local & (kTileSize - 1))};
+        f(cell, tile.offset[local], tile.sums[local].z());
+      }
+    });
+  }
+
   /// Cells with a centroid.
   [[nodiscard]] std::size_t size() const { return cells_; }
   [[nodiscard]] double cell_size() const { return cell_; }
@@ -105,4 +126,4 @@ class CellCentroids {
   std::size_t cells_ = 0;
 };
 
-}  // namespace hmap::slam
+}  // namespace hmap
