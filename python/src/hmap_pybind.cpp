@@ -121,10 +121,10 @@ class Map {
     return f(live_->mapper->map(), static_cast<const OccupancyGrid*>(nullptr), std::span<const GroundPatch>());
   }
 
+  /// The cell centroids saved with a loaded map (null for a live map or a file without them).
+  [[nodiscard]] const CellCentroids* file_centroids() const { return file_ && file_->centroids ? &*file_->centroids : nullptr; }
   /// The SLAM's cell centroids: those saved with a loaded map, or a live SLAM's (read them inside
   /// read(), under its lock); null for a file without them or a mapper's map.
-  /// Those saved with a loaded map alone (no lock needed).
-  [[nodiscard]] const CellCentroids* file_centroids() const { return file_ && file_->centroids ? &*file_->centroids : nullptr; }
   [[nodiscard]] const CellCentroids* centroids() const {
     if (file_) return file_->centroids ? &*file_->centroids : nullptr;
     return live_->slam ? &live_->slam->map_centroids() : nullptr;

@@ -982,16 +982,27 @@ TEST_F(HMapFileTest, CellCentroidsRoundTripExactly) {
   const HMap map = handmade_map();
   CellCentroids centroids(map.cell_size());
   std::mt19937 rng(3);
-  std::uniform_real_distribution<double> pos(-20.0, 20.0);
-  for (int k = 0; k < 500; ++k) centroids.add(pos(rng), pos(rng), 1.0 + k % 7);
-  centroids.restore({-1000000, 999999}, {0.05F, -0.05F}, 12.5);  // a half-cell offset, far out
+  // Points over the map's tiles (0, 0) and (-1, -1) of 8 × 8 cells of 0.1 m.
+  std::uniform_real_distribution<double> pos(-0.8, 0.8);
+  for (int k = 0; k < 500; ++k) {
+    const double x = pos(rng);
+    centroids.add(x, std::copysign(std::abs(pos(rng)), x), 1.0 + k % 7);
+  }
+  centroids.restore({-(1 << 30) + 2, (1 << 30) - 3}, {0.05F, -0.05F}, 12.5);  // a half-cell offset, far out
+  // In no tile the map stores (the allocated tile at (1000, 1000) holds no HVoxel): not saved.
+  centroids.add(100.05, 100.05, 1.0);
+  centroids.add(1000.05, 1000.05, 1.0);
   save_hmap(dir_ / "c.hmap", map, {}, nullptr, &centroids);
   const MapFile back = load_map_file(dir_ / "c.hmap");
   ASSERT_TRUE(back.centroids.has_value());
-  ASSERT_EQ(back.centroids->size(), centroids.size());
+  ASSERT_EQ(back.centroids->size(), centroids.size() - 2);
+  EXPECT_GT(back.centroids->size(), 60U);
+  EXPECT_EQ(back.centroids->offset({1000, 1000}), nullptr);
+  EXPECT_EQ(back.centroids->offset({10000, 10000}), nullptr);
   EXPECT_EQ(back.centroids->cell_size(), map.cell_size());
   std::size_t checked = 0;
   centroids.for_each([&](const CellKey& cell, const Eigen::Vector2f& offset, double weight) {
+    if (cell.i >= 1000) return;  // the two left out
     const Eigen::Vector2f* got = back.centroids->offset(cell);
     ASSERT_NE(got, nullptr) << cell.i << "," << cell.j;
     EXPECT_EQ(*got, offset) << cell.i << "," << cell.j;
@@ -1002,7 +1013,7 @@ TEST_F(HMapFileTest, CellCentroidsRoundTripExactly) {
     });
     ++checked;
   });
-  EXPECT_EQ(checked, centroids.size());
+  EXPECT_EQ(checked, centroids.size() - 2);
   save_hmap(dir_ / "c2.hmap", back.map, {}, nullptr, &*back.centroids);
   EXPECT_EQ(read_bytes(dir_ / "c2.hmap"), read_bytes(dir_ / "c.hmap"));
   // Without centroids the section is there and empty; with another cell size, nothing is written.
@@ -1017,26 +1028,27 @@ TEST_F(HMapFileTest, CellCentroidsRoundTripExactly) {
 
 TEST_F(HMapFileTest, CellCentroidSectionIsChecked) {
   const auto path = dir_ / "bad.hmap";
-  // The valid crafted file loads (offsets within half a cell).
-  write_bytes(path, v3_file(centroid_section_of({{-3, 7, 0.01F, -0.05F, 2.0}, {-3, 8, 0.0F, 0.0F, 0.5}, {4, -9, 0.049F, 0.02F, 7.0}})));
+  // The valid crafted file loads (offsets within half a cell; cells in the tiles (-1, 0) and (0, -3)).
+  write_bytes(path, v3_file(centroid_section_of({{-3, 5, 0.0F, 0.0F, 0.5}, {-3, 7, 0.01F, -0.05F, 2.0}, {4, -20, 0.049F, 0.02F, 7.0}})));
   const MapFile ok = load_map_file(path);
   ASSERT_TRUE(ok.centroids.has_value());
   EXPECT_EQ(ok.centroids->size(), 3U);
   ASSERT_NE(ok.centroids->offset({-3, 7}), nullptr);
   EXPECT_EQ(*ok.centroids->offset({-3, 7}), Eigen::Vector2f(0.01F, -0.05F));
-  EXPECT_EQ(ok.centroids->offset({0, 0}), nullptr);
+  EXPECT_EQ(ok.centroids->offset({-3, 6}), nullptr);
 
-  EXPECT_TRUE(rejected(path, v3_file(centroid_section_of({{4, -9, 0.0F, 0.0F, 1.0}, {-3, 7, 0.0F, 0.0F, 1.0}})),
+  EXPECT_TRUE(rejected(path, v3_file(centroid_section_of({{4, -20, 0.0F, 0.0F, 1.0}, {-3, 7, 0.0F, 0.0F, 1.0}})),
                        "increasing key order"));
   EXPECT_TRUE(rejected(path, v3_file(centroid_section_of({{-3, 7, 0.0F, 0.0F, 1.0}, {-3, 7, 0.0F, 0.0F, 1.0}})),
                        "increasing key order"));
-  EXPECT_TRUE(rejected(path, v3_file(centroid_section_of({{0, 0, 0.2F, 0.0F, 1.0}})), "half a cell"));
-  EXPECT_TRUE(rejected(path, v3_file(centroid_section_of({{0, 0, 0.0F, std::numeric_limits<float>::quiet_NaN(), 1.0}})),
+  EXPECT_TRUE(rejected(path, v3_file(centroid_section_of({{-3, 7, 0.2F, 0.0F, 1.0}})), "half a cell"));
+  EXPECT_TRUE(rejected(path, v3_file(centroid_section_of({{-3, 7, 0.0F, std::numeric_limits<float>::quiet_NaN(), 1.0}})),
                        "half a cell"));
-  EXPECT_TRUE(rejected(path, v3_file(centroid_section_of({{0, 0, 0.0F, 0.0F, 0.0}})), "positive, finite weight"));
-  EXPECT_TRUE(rejected(path, v3_file(centroid_section_of({{0, 0, 0.0F, 0.0F, std::numeric_limits<double>::infinity()}})),
+  EXPECT_TRUE(rejected(path, v3_file(centroid_section_of({{-3, 7, 0.0F, 0.0F, 0.0}})), "positive, finite weight"));
+  EXPECT_TRUE(rejected(path, v3_file(centroid_section_of({{-3, 7, 0.0F, 0.0F, std::numeric_limits<double>::infinity()}})),
                        "positive, finite weight"));
   EXPECT_TRUE(rejected(path, v3_file(centroid_section_of({{1 << 30, 0, 0.0F, 0.0F, 1.0}})), "cell keys"));
+  EXPECT_TRUE(rejected(path, v3_file(centroid_section_of({{800, 800, 0.0F, 0.0F, 1.0}})), "a tile the map holds"));
   // An absurd count is refused from the bytes that remain, before any allocation.
   std::string huge;
   put_u64(huge, std::uint64_t{1} << 40);

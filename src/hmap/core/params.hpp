@@ -96,8 +96,8 @@ struct SlamParams {
                                              ///< turned (wheel odometry: 1-5 %)
   int hvoxel_centroids = 2;                ///< [-] 2 (default): scan HVoxels are matched at their points' plan
                                            ///< centroids and the map's cells read at the centroids of the tall
-                                           ///< points merged into them (docs/SLAM.md "HVoxels at their
-                                           ///< points' centroids"); 1: the scan's only (the map's still at its
+                                           ///< points merged into them (docs/SLAM.md, "Session 28" and
+                                           ///< "Session 29"); 1: the scan's only (the map's still at its
                                            ///< cells' centres: biased where a wall is parallel to the grid);
                                            ///< 0: at their cells' centres, as eq. (6) has it (the match leans
                                            ///< toward poses where the scan's grid and the map's coincide)

@@ -192,8 +192,10 @@ std::string hybrid_sections(std::span<const GroundPatch> ground, const std::vect
   return out;
 }
 
-/// The version-3 section after the grid: the cell centroids in increasing (i, j) order.
-std::string centroid_section(const CellCentroids* centroids) {
+/// The version-3 section after the grid: the cell centroids in increasing (i, j) order, those in
+/// the stored tiles alone (`tiles`, sorted: a centroid whose cell's HVoxels were all carved away
+/// since is left out, so that the reader can bound them by the map's tiles).
+std::string centroid_section(const CellCentroids* centroids, const std::vector<TileRef>& tiles) {
   struct Entry {
     CellKey cell;
     Eigen::Vector2f offset;
@@ -202,8 +204,13 @@ std::string centroid_section(const CellCentroids* centroids) {
   std::vector<Entry> cells;
   if (centroids != nullptr) {
     cells.reserve(centroids->size());
-    centroids->for_each([&cells](const CellKey& cell, const Eigen::Vector2f& offset, double weight) {
-      cells.push_back({cell, offset, weight});
+    const auto stored = [&tiles](const CellKey& tile) {
+      return std::binary_search(tiles.begin(), tiles.end(), TileRef{tile, nullptr}, [](const TileRef& a, const TileRef& b) {
+        return a.first.i < b.first.i || (a.first.i == b.first.i && a.first.j < b.first.j);
+      });
+    };
+    centroids->for_each([&](const CellKey& cell, const Eigen::Vector2f& offset, double weight) {
+      if (stored(HMap::tile_of(cell))) cells.push_back({cell, offset, weight});
     });
   }
   std::sort(cells.begin(), cells.end(), [](const Entry& a, const Entry& b) {
@@ -661,7 +668,8 @@ std::optional<OccupancyGrid> read_grid(PayloadReader& in, const Params& params) 
   return grid;
 }
 
-CellCentroids read_centroids(PayloadReader& in, double cell_size) {
+CellCentroids read_centroids(PayloadReader& in, const HMap& map) {
+  const double cell_size = map.cell_size();
   const std::uint64_t at = in.position();
   const std::uint64_t count = in.u64();
   if (count > in.remaining() / kCentroidBytes) {
@@ -683,6 +691,10 @@ CellCentroids read_centroids(PayloadReader& in, double cell_size) {
       throw in.error(cell_at, cell_name + ": expected cells in increasing key order, each once");
     }
     previous = cell;
+    // In a tile the map holds: the centroids' tiles are then bounded by the map's own.
+    if (map.find_tile(HMap::tile_of(cell)) == nullptr) {
+      throw in.error(cell_at, cell_name + ": expected a cell in a tile the map holds");
+    }
     const float ox = in.f32();
     const float oy = in.f32();
     const double weight = in.f64();
@@ -725,7 +737,7 @@ void save_hmap(const std::filesystem::path& path, const HMap& map, std::span<con
   // left, and hmap::Error messages get the path.
   write_file_atomic(path, [&map, ground, grid, centroids](std::ostream& out) {
     const std::vector<TileRef> tiles = sorted_nonempty_tiles(map);
-    const std::string sections = hybrid_sections(ground, sorted_grid_tiles(grid)) + centroid_section(centroids);
+    const std::string sections = hybrid_sections(ground, sorted_grid_tiles(grid)) + centroid_section(centroids, tiles);
     std::uint64_t payload_size = 8 + sections.size();
     for (const auto& [key, tile] : tiles) payload_size += tile_bytes(*tile);
     if (payload_size > kMaxPayloadBytes) {
@@ -843,7 +855,7 @@ MapFile load_map_file(const std::filesystem::path& path) {
     result.ground = read_ground(payload);
     result.grid = read_grid(payload, result.map.params());
   }
-  if (version >= 3) result.centroids = read_centroids(payload, result.map.cell_size());
+  if (version >= 3) result.centroids = read_centroids(payload, result.map);
   payload.finish();
   return result;
 }

@@ -36,7 +36,7 @@
 //                                     others within the clamping bounds of the parameters
 //   (version 3 only, possibly empty:)
 //   uint64 cell centroid count K, then K cells in increasing (i, j) order, each once:
-//     int32 i, int32 j                the cell
+//     int32 i, int32 j                the cell, in one of the stored tiles
 //     2 float32 offset                [m] of the centroid of the tall points merged into the cell
 //                                     from its centre, each within half a cell (CellCentroids)
 //     float64 weight                  > 0, the points behind it
