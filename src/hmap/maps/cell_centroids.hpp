@@ -7,7 +7,7 @@
 //
 // Stored like the HMAP: tiles of 8 × 8 cells found through a TileIndex (open addressing), each cell
 // 32 bytes (its offset and its weighted sums). The matcher looks an offset up per scan HVoxel
-// whose cell changes; a node-based hash map cost the SLAM about 6 % of its time there.
+// whose cell changes; a node-based hash map of cells cost the SLAM about 6 % of its samples there.
 
 #include <Eigen/Core>
 #include <array>
@@ -16,6 +16,7 @@
 #include <limits>
 #include <vector>
 
+#include "hmap/maps/hmap.hpp"
 #include "hmap/maps/scan_hvoxels.hpp"
 #include "hmap/maps/tile_index.hpp"
 
@@ -23,9 +24,9 @@ namespace hmap {
 
 class CellCentroids {
  public:
-  static constexpr int kTileBits = 3;  // as the HMAP's tiles
-  static constexpr int kTileSize = 1 << kTileBits;
-  static constexpr int kTileCells = kTileSize * kTileSize;
+  // The HMAP's tiles: one tile key and one local index for both (HMap::tile_of, local_index).
+  static constexpr int kTileBits = HMap::kTileBits;
+  static constexpr int kTileCells = HMap::kTileCells;
 
  private:
   struct Tile {
@@ -98,9 +99,7 @@ class CellCentroids {
     tiles_.for_each([&](const CellKey& tile_key, const Tile& tile) {
       for (std::size_t local = 0; local < static_cast<std::size_t>(kTileCells); ++local) {
         if (in(tile, local) == nullptr) continue;
-        const CellKey cell{(tile_key.i << kTileBits) + static_cast<std::int32_t>(local >> kTileBits),
-                           (tile_key.j << kTileBits) + static_cast<std::int32_t>(local & (kTileSize - 1))};
-        f(cell, tile.offset[local], tile.sums[local].z());
+        f(HMap::key_in_tile(tile_key, static_cast<int>(local)), tile.offset[local], tile.sums[local].z());
       }
     });
   }
@@ -116,10 +115,8 @@ class CellCentroids {
     const Eigen::Vector2f& offset = tile.offset[local];
     return offset.x() == offset.x() ? &offset : nullptr;  // NaN: none
   }
-  [[nodiscard]] static CellKey tile_of(const CellKey& key) { return {key.i >> kTileBits, key.j >> kTileBits}; }
-  [[nodiscard]] static std::size_t local_index(const CellKey& key) {
-    return static_cast<std::size_t>(((key.i & (kTileSize - 1)) << kTileBits) | (key.j & (kTileSize - 1)));
-  }
+  [[nodiscard]] static CellKey tile_of(const CellKey& key) { return HMap::tile_of(key); }
+  [[nodiscard]] static std::size_t local_index(const CellKey& key) { return static_cast<std::size_t>(HMap::local_index(key)); }
 
   double cell_;
   TileIndex<Tile> tiles_;

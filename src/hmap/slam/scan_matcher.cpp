@@ -54,9 +54,9 @@ struct Projection {
 /// With the map's centroids: the projection moved back by the offset of the cell it lands in, so
 /// that the bilinear field, whose values stand at the cells' centres, is read as if they stood at
 /// the centroids. Its derivative is left out (the offset is constant within a cell). The offset is
-/// looked up only when the cell differs from the one `at` caches (a hash lookup per HVoxel and
-/// iteration cost the SLAM 15 % of its time). A const candidate's cache is only read (cost_only,
-/// whose threads share the candidates).
+/// looked up only when the cell differs from the one `at` caches (a lookup per HVoxel and
+/// iteration cost the SLAM several % of its time). A const candidate's cache is only read
+/// (cost_only, whose threads share the candidates).
 template <class Candidate>
 inline void shift_by_map_centroid(Projection& p, const CellCentroids* centroids, const CellCentroids::View& view, float cell,
                                   Candidate& cand) {
