@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "hmap/core/params.hpp"
+#include "hmap/io/config.hpp"
 #include "hmap/io/kitti.hpp"
 
 namespace hmap::bench {
@@ -35,6 +36,16 @@ inline Params hdl64_params() {
   p.map.cell_size = 0.2;
   p.map.max_range = 50.0;
   return p;
+}
+
+/// What `hmap slam --cell 0.2` runs with on these scans: the preset and the defaults chosen from
+/// the first scan (the outdoor preset's 25 m range, the ring spacing's height gap), at 0.2 m.
+inline Params hdl64_defaults_at_0_2() {
+  const auto& scans = hdl64_scans();
+  if (scans.empty()) return hdl64_params();
+  ParamSources sources;
+  sources.cell_size = 0.2;
+  return resolve_params_for_scan(sources, scans.front()).params;
 }
 
 }  // namespace hmap::bench

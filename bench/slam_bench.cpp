@@ -77,4 +77,27 @@ void BM_SlamSteadyHdl64(benchmark::State& state) {
 }
 BENCHMARK(BM_SlamSteadyHdl64)->Unit(benchmark::kMillisecond);
 
+// The same steady state with what `hmap slam --kitti kitti_hdl64_seq16 --cell 0.2` chooses: the
+// user's command at issue 16's 0.2 m (the range is the preset's 25 m, not the 50 m above).
+void BM_SlamSteadyHdl64Defaults(benchmark::State& state) {
+  const auto& scans = hmap::bench::hdl64_scans();
+  if (scans.size() < 3) {
+    state.SkipWithError("kitti_hdl64_seq16 is absent: set HMAP_DATA_DIR");
+    return;
+  }
+  const hmap::Params p = hmap::bench::hdl64_defaults_at_0_2();
+  std::size_t steps = 0;
+  for (auto _ : state) {
+    state.PauseTiming();
+    hmap::slam::HmapSlam slam(p);
+    slam.process(scans[0], {});
+    slam.process(scans[1], {});
+    state.ResumeTiming();
+    for (std::size_t k = 2; k < scans.size(); ++k) slam.process(scans[k], {});
+    steps += scans.size() - 2;
+  }
+  state.counters["scans/s"] = benchmark::Counter(static_cast<double>(steps), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_SlamSteadyHdl64Defaults)->Unit(benchmark::kMillisecond);
+
 }  // namespace
