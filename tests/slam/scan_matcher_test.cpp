@@ -365,6 +365,58 @@ TEST(ScanMatcher, ThinFallbackOnBareGroundKeepsTheGuess) {
   EXPECT_LT(yaw_error(r.pose.yaw, truth.yaw), 0.2 * kDeg);
 }
 
+// The thin fallback matches at the cells' centres on both sides, though the scan has its
+// HVoxels' centroids and the map has centroids (slam.hvoxel_centroids 2): the map keeps centroids
+// for the tall HVoxels only, so ground rings at their points' centroids met cells at their centres.
+// On the parking route's blind stretch without odometry that ran away forward, the constant
+// velocity feeding it on (docs/SLAM.md, session 30). The match is the one without any centroids,
+// bit for bit; with them taken (the map's 3 cm east of every centre) it would move.
+TEST(ScanMatcher, ThinFallbackMatchesAtTheCellsCentres) {
+  using sim::Box;
+  using sim::SurfaceKind;
+  sim::SceneBuilder b;
+  b.add("road", sim::make_ground({-80, -3.5}, {80, 3.5}, 0.0));
+  b.add("kerb", {{Box{{0.0, 3.6, -0.04}, {80.0, 0.1, 0.16}, 0.0}, SurfaceKind::kCurb}});
+  b.add("kerb", {{Box{{0.0, -3.6, -0.04}, {80.0, 0.1, 0.16}, 0.0}, SurfaceKind::kCurb}});
+  b.add("walk", sim::make_ground({-80, 3.7}, {80, 12}, 0.12));
+  b.add("walk", sim::make_ground({-80, -12}, {80, -3.7}, 0.12));
+  const sim::Scene scene = b.build();
+  const Params p = outdoor_preset();
+  const double cell = p.map.cell_size;
+  const PlanarPose truth{0.4, 0.0, 0.0};
+  TwoScans s = vlp16_drive(scene, p, {-1.2, -0.8, -0.4, 0.0}, truth);
+  // The scan again, from the same points: without its centroids and with them.
+  sim::SpinningLidar lidar(sim::SpinningLidarParams::vlp16());
+  const PointCloud points = lidar.scan(scene, sensor_pose(truth), 0.1).points_sensor;
+  const Pose level_frame = compose(PlanarPose{}, Attitude{kSensorHeight, 0.0, 0.0});
+  ScanHVoxels at_centres;
+  ScanHVoxelizer(p.map).build(points, level_frame, at_centres);
+  ScanHVoxelizer level(p.map);
+  level.keep_centroids(true);
+  ScanHVoxels with_centroids;
+  level.build(points, level_frame, with_centroids);
+  ASSERT_EQ(with_centroids.hvoxels, at_centres.hvoxels);
+  ASSERT_EQ(with_centroids.centroids.size(), with_centroids.hvoxels.size());
+  const PlanarPose guess{0.45, 0.03, 0.5 * kDeg};
+  ScanMatcher plain(p);
+  const MatchResult without = plain.match(at_centres, s.map, guess, CoarseSearch::kWhenFailed, std::nullopt,
+                                          ThinFallback::kFull);
+  ASSERT_FALSE(without.skipped);
+  ASSERT_GE(without.hvoxels_used, ScanMatcher::kMinHVoxels);
+  ASSERT_NE(without.pose.yaw, guess.yaw);  // the thin HVoxels moved it
+  // The map's centroids put 3 cm east of every centre.
+  CellCentroids east(cell);
+  s.map.for_each_column([&](const CellKey& k, const auto&) { east.add((k.i + 0.5) * cell + 0.03, (k.j + 0.5) * cell, 1.0); });
+  ScanMatcher centroids(p);
+  centroids.set_map_centroids(&east);
+  const MatchResult thin = centroids.match(with_centroids, s.map, guess, CoarseSearch::kWhenFailed, std::nullopt,
+                                           ThinFallback::kFull);
+  EXPECT_EQ(thin.pose.x, without.pose.x);
+  EXPECT_EQ(thin.pose.y, without.pose.y);
+  EXPECT_EQ(thin.pose.yaw, without.pose.yaw);
+  EXPECT_EQ(thin.iterations, without.iterations);
+}
+
 TEST(ScanMatcher, ThinHeadingMatchTurnsByTheKerbsAndKeepsTheOdometrysPosition) {
   // A road between two 12 cm kerbs and nothing taller (the parking side road's empty end), a VLP-16
   // driving along x at 0.4 m per scan, with odometry 5 cm ahead and 1.5 deg off after a blind stretch

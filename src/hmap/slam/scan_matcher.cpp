@@ -82,7 +82,7 @@ inline void shift_by_map_centroid(Projection& p, const CellCentroids* centroids,
 
 ScanMatcher::ScanMatcher(const Params& params) : params_(params), interpolator_((validate(params), params)) {}
 
-void ScanMatcher::select(const ScanHVoxels& scan_level, float min_match) {
+void ScanMatcher::select(const ScanHVoxels& scan_level, float min_match, bool at_centres) {
   // "Height-Voxel Selection": only HVoxels whose density reaches n_th take part.
   candidates_.clear();
   const double s = params_.map.cell_size;
@@ -101,7 +101,7 @@ void ScanMatcher::select(const ScanHVoxels& scan_level, float min_match) {
   // v_x, v_y of eq. (6): the HVoxel's points' plan centroid when the scan has them (a surface lies
   // anywhere in its cell; at the cell's centre every HVoxel is up to half a cell off, and the match
   // is pulled toward poses where the scan's grid and the map's coincide), else the cell's centre.
-  const bool centroids = scan_level.centroids.size() == scan_level.hvoxels.size();
+  const bool centroids = !at_centres && scan_level.centroids.size() == scan_level.hvoxels.size();
   for (const ScanCell& cell : scan_level.cells) {
     const Eigen::Vector2f centre{static_cast<float>((cell.key.i + 0.5) * s), static_cast<float>((cell.key.j + 0.5) * s)};
     for (std::uint32_t k = cell.first; k < cell.first + cell.count; ++k) {
@@ -162,7 +162,7 @@ ScanMatcher::Linearization ScanMatcher::linearize(const PlanarPose& pose, std::s
   for (std::size_t k = chunk * kChunk * stride; k < end; k += stride) {
     Candidate& cand = candidates_[k];
     Projection projected = project(cand.v, c, co, pose, s);
-    shift_by_map_centroid(projected, map_centroids_, centroid_view_, s, cand);
+    shift_by_map_centroid(projected, thin_ ? nullptr : map_centroids_, centroid_view_, s, cand);
     const auto [u, w, fu, fw, base] = projected;
     if (!(base == cand.base)) {
       // The four F values depend only on the layer and the cells: cached until q leaves them.
@@ -415,7 +415,7 @@ double ScanMatcher::cost_only(const PlanarPose& pose, std::size_t stride) const 
   for (std::size_t k = 0; k < candidates_.size(); k += stride) {
     const Candidate& cand = candidates_[k];
     Projection projected = project(cand.v, c, co, pose, s);
-    shift_by_map_centroid(projected, map_centroids_, centroid_view_, s, cand);
+    shift_by_map_centroid(projected, thin_ ? nullptr : map_centroids_, centroid_view_, s, cand);
     const auto [u, w, fu, fw, base] = projected;
     const std::array<float, 4> F = base == cand.base ? cand.F : interpolator_.corner_values(view_, cand.layer, base);
     const float r = 1.0F - bilinear(F, u - fu, w - fw, s).value;
@@ -485,9 +485,16 @@ MatchResult ScanMatcher::match(const ScanHVoxels& scan_level, const HMap& map, c
                                ThinFallback thin_fallback, const std::optional<MotionPrior>& prior) {
   prior_.reset();
   yaw_only_ = false;
+  thin_ = false;
   select(scan_level, static_cast<float>(params_.slam.min_match_height));
   if (candidates_.size() < kMinHVoxels && thin_fallback != ThinFallback::kNone && params_.slam.min_match_height > 0.0) {
-    select(scan_level, 0.0F);
+    // At the cells' centres, scan and map alike: the map keeps centroids for the tall HVoxels
+    // only, and ground rings at their points' centroids against cells at their centres ran away
+    // forward through the parking route's blind stretch without odometry (1.0-1.7 m per scan where
+    // the car made 0.2-0.5, the constant velocity feeding it on: 20 m too far on seed 3; at the
+    // centres 4.6 m short). docs/SLAM.md, session 30.
+    thin_ = true;
+    select(scan_level, 0.0F, true);
     // Only where the map is known all around (at the guess): flat ground is the same everywhere, so
     // its HVoxels tell the pose only by the edge of what the map has seen, and that edge pulled the
     // scan back onto it (the parking side road's empty end: 6 m behind, 9° of yaw in the U-turn).

@@ -171,7 +171,8 @@ class ScanMatcher {
     double score = 0.0;  // Σ M_H
   };
 
-  void select(const ScanHVoxels& scan_level, float min_match);
+  /// `at_centres`: every candidate at its cell's centre, though the scan has centroids.
+  void select(const ScanHVoxels& scan_level, float min_match, bool at_centres = false);
   /// Whether eq. (5) supports moving from `from` (Gauss-Newton from the guess) to `to` (the coarse
   /// search's pick): a move under a cell always; else the gain is at least slam.degeneracy_ratio of
   /// the rise over as long a move along `to`'s best-constrained direction. Assesses `to`'s
@@ -205,6 +206,7 @@ class ScanMatcher {
   std::optional<MotionPrior> prior_;  // of the match under way
   double prior_weight_ = 0.0;         // s² of MotionPrior for it
   bool yaw_only_ = false;  // the match under way moves the yaw alone (ThinFallback::kHeading)
+  bool thin_ = false;      // the match under way is on the thin HVoxels (a thin fallback)
   const CellCentroids* map_centroids_ = nullptr;  // set_map_centroids
   CellCentroids::View centroid_view_;             // map_centroids_' tiles in view_'s window
 };
