@@ -57,35 +57,13 @@ BENCHMARK(BM_SlamStepHdl64)->Unit(benchmark::kMillisecond);
 
 // The steady state: scans 3..16 of each pass timed, after the first scan (no matching) and the
 // second (always searched coarsely: constant velocity knows nothing yet) have set up the map.
-void BM_SlamSteadyHdl64(benchmark::State& state) {
+/// Scans 3..16 of each pass timed with `p`, the map rebuilt each pass.
+void slam_steady(benchmark::State& state, const hmap::Params& p) {
   const auto& scans = hmap::bench::hdl64_scans();
   if (scans.size() < 3) {
     state.SkipWithError("kitti_hdl64_seq16 is absent: set HMAP_DATA_DIR");
     return;
   }
-  std::size_t steps = 0;
-  for (auto _ : state) {
-    state.PauseTiming();
-    hmap::slam::HmapSlam slam(hmap::bench::hdl64_params());
-    slam.process(scans[0], {});
-    slam.process(scans[1], {});
-    state.ResumeTiming();
-    for (std::size_t k = 2; k < scans.size(); ++k) slam.process(scans[k], {});
-    steps += scans.size() - 2;
-  }
-  state.counters["scans/s"] = benchmark::Counter(static_cast<double>(steps), benchmark::Counter::kIsRate);
-}
-BENCHMARK(BM_SlamSteadyHdl64)->Unit(benchmark::kMillisecond);
-
-// The same steady state with what `hmap slam --kitti kitti_hdl64_seq16 --cell 0.2` chooses: the
-// user's command at issue 16's 0.2 m (the range is the preset's 25 m, not the 50 m above).
-void BM_SlamSteadyHdl64Defaults(benchmark::State& state) {
-  const auto& scans = hmap::bench::hdl64_scans();
-  if (scans.size() < 3) {
-    state.SkipWithError("kitti_hdl64_seq16 is absent: set HMAP_DATA_DIR");
-    return;
-  }
-  const hmap::Params p = hmap::bench::hdl64_defaults_at_0_2();
   std::size_t steps = 0;
   for (auto _ : state) {
     state.PauseTiming();
@@ -98,6 +76,13 @@ void BM_SlamSteadyHdl64Defaults(benchmark::State& state) {
   }
   state.counters["scans/s"] = benchmark::Counter(static_cast<double>(steps), benchmark::Counter::kIsRate);
 }
+
+void BM_SlamSteadyHdl64(benchmark::State& state) { slam_steady(state, hmap::bench::hdl64_params()); }
+BENCHMARK(BM_SlamSteadyHdl64)->Unit(benchmark::kMillisecond);
+
+// The same steady state with what `hmap slam --kitti kitti_hdl64_seq16 --cell 0.2` chooses: the
+// user's command at issue 16's 0.2 m (the range is the preset's 25 m, not the 50 m above).
+void BM_SlamSteadyHdl64Defaults(benchmark::State& state) { slam_steady(state, hmap::bench::hdl64_defaults_at_0_2()); }
 BENCHMARK(BM_SlamSteadyHdl64Defaults)->Unit(benchmark::kMillisecond);
 
 }  // namespace

@@ -343,6 +343,20 @@ TwoScans vlp16_drive(const sim::Scene& scene, const Params& p, std::initializer_
   return out;
 }
 
+/// A road between two 12 cm kerbs, pavements beyond, and nothing taller (the parking side road's
+/// empty end).
+sim::Scene kerbed_road() {
+  using sim::Box;
+  using sim::SurfaceKind;
+  sim::SceneBuilder b;
+  b.add("road", sim::make_ground({-80, -3.5}, {80, 3.5}, 0.0));
+  b.add("kerb", {{Box{{0.0, 3.6, -0.04}, {80.0, 0.1, 0.16}, 0.0}, SurfaceKind::kCurb}});
+  b.add("kerb", {{Box{{0.0, -3.6, -0.04}, {80.0, 0.1, 0.16}, 0.0}, SurfaceKind::kCurb}});
+  b.add("walk", sim::make_ground({-80, 3.7}, {80, 12}, 0.12));
+  b.add("walk", sim::make_ground({-80, -12}, {80, -3.7}, 0.12));
+  return b.build();
+}
+
 TEST(ScanMatcher, ThinFallbackOnBareGroundKeepsTheGuess) {
   // Bare flat ground and nothing taller (the parking side road's empty end), a VLP-16 driving along
   // x, no odometry: the match falls back on the thin HVoxels. The ground is the same everywhere, so
@@ -372,15 +386,7 @@ TEST(ScanMatcher, ThinFallbackOnBareGroundKeepsTheGuess) {
 // velocity feeding it on (docs/SLAM.md, session 30). The match is the one without any centroids,
 // bit for bit; with them taken (the map's 3 cm east of every centre) it would move.
 TEST(ScanMatcher, ThinFallbackMatchesAtTheCellsCentres) {
-  using sim::Box;
-  using sim::SurfaceKind;
-  sim::SceneBuilder b;
-  b.add("road", sim::make_ground({-80, -3.5}, {80, 3.5}, 0.0));
-  b.add("kerb", {{Box{{0.0, 3.6, -0.04}, {80.0, 0.1, 0.16}, 0.0}, SurfaceKind::kCurb}});
-  b.add("kerb", {{Box{{0.0, -3.6, -0.04}, {80.0, 0.1, 0.16}, 0.0}, SurfaceKind::kCurb}});
-  b.add("walk", sim::make_ground({-80, 3.7}, {80, 12}, 0.12));
-  b.add("walk", sim::make_ground({-80, -12}, {80, -3.7}, 0.12));
-  const sim::Scene scene = b.build();
+  const sim::Scene scene = kerbed_road();
   const Params p = outdoor_preset();
   const double cell = p.map.cell_size;
   const PlanarPose truth{0.4, 0.0, 0.0};
@@ -424,15 +430,7 @@ TEST(ScanMatcher, ThinHeadingMatchTurnsByTheKerbsAndKeepsTheOdometrysPosition) {
   // ThinFallback::kNone the odometry's pose is kept as it is; with kHeading the thin HVoxels turn
   // the yaw back (the kerbs run along x) and x, y stay the odometry's exactly: translated, the
   // rings the map was laid with would pull the pose back toward the last scan.
-  using sim::Box;
-  using sim::SurfaceKind;
-  sim::SceneBuilder b;
-  b.add("road", sim::make_ground({-80, -3.5}, {80, 3.5}, 0.0));
-  b.add("kerb", {{Box{{0.0, 3.6, -0.04}, {80.0, 0.1, 0.16}, 0.0}, SurfaceKind::kCurb}});
-  b.add("kerb", {{Box{{0.0, -3.6, -0.04}, {80.0, 0.1, 0.16}, 0.0}, SurfaceKind::kCurb}});
-  b.add("walk", sim::make_ground({-80, 3.7}, {80, 12}, 0.12));
-  b.add("walk", sim::make_ground({-80, -12}, {80, -3.7}, 0.12));
-  const sim::Scene scene = b.build();
+  const sim::Scene scene = kerbed_road();
   const Params p = outdoor_preset();  // 0.25 m cells, 25 m range
   const PlanarPose truth{0.4, 0.0, 0.0};
   const TwoScans s = vlp16_drive(scene, p, {-1.2, -0.8, -0.4, 0.0}, truth);
