@@ -128,7 +128,9 @@ class ScanMatcher {
   /// y keep the odometry's; no coarse search then (docs/SLAM.md). Only the thin HVoxels
   /// whose cell and its eight neighbours are in the map (at the guess) take part: on bare ground the
   /// edge of what the map has seen was the only "feature" and held the pose back.
-  /// With a sparse ring pattern few are left, and the match is then skipped.
+  /// With a sparse ring pattern few are left, and the match is then skipped. The thin HVoxels are
+  /// matched at their cells' centres, and the map read at its cells' centres too (the map centroids
+  /// are the tall HVoxels'), whatever the scan's centroids and set_map_centroids.
   /// `alternative` (the last pose, when the guess extrapolates a motion): a second centre of the
   /// coarse search. A handheld sensor's turn rate changes sign from one scan to the next, so
   /// constant velocity can be farther off than no motion at all.
