@@ -162,7 +162,7 @@ ScanMatcher::Linearization ScanMatcher::linearize(const PlanarPose& pose, std::s
   for (std::size_t k = chunk * kChunk * stride; k < end; k += stride) {
     Candidate& cand = candidates_[k];
     Projection projected = project(cand.v, c, co, pose, s);
-    shift_by_map_centroid(projected, thin_ ? nullptr : map_centroids_, centroid_view_, s, cand);
+    shift_by_map_centroid(projected, read_centroids_, centroid_view_, s, cand);
     const auto [u, w, fu, fw, base] = projected;
     if (!(base == cand.base)) {
       // The four F values depend only on the layer and the cells: cached until q leaves them.
@@ -415,7 +415,7 @@ double ScanMatcher::cost_only(const PlanarPose& pose, std::size_t stride) const 
   for (std::size_t k = 0; k < candidates_.size(); k += stride) {
     const Candidate& cand = candidates_[k];
     Projection projected = project(cand.v, c, co, pose, s);
-    shift_by_map_centroid(projected, thin_ ? nullptr : map_centroids_, centroid_view_, s, cand);
+    shift_by_map_centroid(projected, read_centroids_, centroid_view_, s, cand);
     const auto [u, w, fu, fw, base] = projected;
     const std::array<float, 4> F = base == cand.base ? cand.F : interpolator_.corner_values(view_, cand.layer, base);
     const float r = 1.0F - bilinear(F, u - fu, w - fw, s).value;
@@ -485,7 +485,7 @@ MatchResult ScanMatcher::match(const ScanHVoxels& scan_level, const HMap& map, c
                                ThinFallback thin_fallback, const std::optional<MotionPrior>& prior) {
   prior_.reset();
   yaw_only_ = false;
-  thin_ = false;
+  read_centroids_ = map_centroids_;
   select(scan_level, static_cast<float>(params_.slam.min_match_height));
   if (candidates_.size() < kMinHVoxels && thin_fallback != ThinFallback::kNone && params_.slam.min_match_height > 0.0) {
     // At the cells' centres, scan and map alike: the map keeps centroids for the tall HVoxels
@@ -493,7 +493,7 @@ MatchResult ScanMatcher::match(const ScanHVoxels& scan_level, const HMap& map, c
     // forward through the parking route's blind stretch without odometry (1.0-1.7 m per scan where
     // the car made 0.2-0.5, the constant velocity feeding it on: 20 m too far on seed 3; at the
     // centres 4.6 m short). docs/SLAM.md, session 30.
-    thin_ = true;
+    read_centroids_ = nullptr;
     select(scan_level, 0.0F, true);
     // Only where the map is known all around (at the guess): flat ground is the same everywhere, so
     // its HVoxels tell the pose only by the edge of what the map has seen, and that edge pulled the
@@ -525,7 +525,7 @@ MatchResult ScanMatcher::match(const ScanHVoxels& scan_level, const HMap& map, c
   const auto half = static_cast<std::int32_t>(std::ceil(reach / params_.map.cell_size)) +
                     params_.slam.interpolation_window;
   view_.reset(map, center, half);
-  centroid_view_.reset(map_centroids_, center, half);
+  centroid_view_.reset(read_centroids_, center, half);
   if (prior) {
     // s²: eq. (5)'s residual variance per HVoxel, from the recent matches (this one's at the guess
     // for the first), so that the prior weighs against the scan as σ_r² : σ_odometry².

@@ -208,9 +208,9 @@ class ScanMatcher {
   std::optional<MotionPrior> prior_;  // of the match under way
   double prior_weight_ = 0.0;         // s² of MotionPrior for it
   bool yaw_only_ = false;  // the match under way moves the yaw alone (ThinFallback::kHeading)
-  bool thin_ = false;      // the match under way is on the thin HVoxels (a thin fallback)
-  const CellCentroids* map_centroids_ = nullptr;  // set_map_centroids
-  CellCentroids::View centroid_view_;             // map_centroids_' tiles in view_'s window
+  const CellCentroids* map_centroids_ = nullptr;   // set_map_centroids
+  const CellCentroids* read_centroids_ = nullptr;  // what the match under way reads: map_centroids_, none in a thin fallback
+  CellCentroids::View centroid_view_;              // read_centroids_' tiles in view_'s window
 };
 
 }  // namespace hmap::slam
