@@ -392,7 +392,7 @@ void run_slam(const SlamOptions& o) {
       const auto t_rebuild = Clock::now();
       CloudReadStats again;
       rebuilt = slam::map_at_corrected_poses(params, slam.map_holds_scans_as_given() ? &slam.map() : nullptr, estimate, closed->T_map_sensor,
-                                             [&](std::size_t k, PointCloud& out) { out = src.read(k, again); });
+                                             [&](std::size_t k, PointCloud& out) { out = src.read(k, again); }, &slam.map_centroids());
       ms_rebuild = ms_since(t_rebuild);
       estimate = rebuilt->T_map_sensor;
     }
@@ -406,9 +406,11 @@ void run_slam(const SlamOptions& o) {
     write_poses_tum(dir / "poses_tum.txt", times, estimate);
     write_file_atomic(dir / "matches.csv", log);
     if (loops) write_file_atomic(dir / "loop_closures.csv", loop_log);
-    // The cell centroids go with the map unless a loop closure rebuilt it: they were summed at
-    // the poses before the correction.
-    save_hmap(dir / "map.hmap", final_map, {}, nullptr, rebuilt ? nullptr : &slam.map_centroids());
+    // The cell centroids go with the map: after a loop closure, those summed again at the
+    // corrected poses where the map was rebuilt.
+    const CellCentroids* centroids = &slam.map_centroids();
+    if (rebuilt) centroids = rebuilt->centroids ? &*rebuilt->centroids : nullptr;
+    save_hmap(dir / "map.hmap", final_map, {}, nullptr, centroids);
     const render::HeightRange range = render::resolve_range(final_map, {});
     render::TopViewport vp;
     RgbImage picture = render::render_top(final_map, range, 2000, vp, 2.0);

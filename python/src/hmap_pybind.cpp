@@ -165,7 +165,7 @@ void save(const Map& m, const std::filesystem::path& path) {
 }
 
 py::dict stats_dict(const Map& m) {
-  return m.read([](const HMap& map, const OccupancyGrid* grid, std::span<const GroundPatch> ground) {
+  return m.read([&m](const HMap& map, const OccupancyGrid* grid, std::span<const GroundPatch> ground) {
     const MapStats s = map.stats();
     py::dict d;
     d["cells"] = s.cells;
@@ -181,6 +181,8 @@ py::dict stats_dict(const Map& m) {
     }
     d["ground_patches"] = ground.size();
     d["grid_cells"] = grid == nullptr ? py::object(py::none()) : py::object(py::int_(grid->known_cells()));
+    const CellCentroids* centroids = m.centroids();  // (under the lock read() holds)
+    d["cell_centroids"] = centroids == nullptr ? 0 : centroids->size();
     return d;
   });
 }
@@ -541,6 +543,7 @@ py::dict slam_close_loops(PySlam& self, const py::function& read_scan) {
   slam::LoopClosureResult closed;
   PoseList built_at;
   std::optional<HMap> built;  // a copy: read_scan may use this Slam while the tiles are rebuilt
+  std::optional<CellCentroids> centroids;  // the same
   Params params;
   {
     py::gil_scoped_release release;
@@ -556,6 +559,11 @@ py::dict slam_close_loops(PySlam& self, const py::function& read_scan) {
     if (!closed.closures.empty() && box.slam->map_holds_scans_as_given()) {
       built.emplace(box.slam->map().params());
       merge_map(*built, box.slam->map());  // into an empty map: an exact copy
+    }
+    if (!closed.closures.empty()) {
+      const CellCentroids& live = box.slam->map_centroids();
+      centroids.emplace(live.cell_size());
+      live.for_each([&](const CellKey& c, const Eigen::Vector2f& o, double w) { centroids->restore(c, o, w); });
     }
   }
   py::dict d;
@@ -595,7 +603,7 @@ py::dict slam_close_loops(PySlam& self, const py::function& read_scan) {
       PointCloud storage;
       const std::span<const Point3f> pts = points_of(arr, storage, NonFinite::kDrop, "read_scan(k)");
       out.assign(pts.begin(), pts.end());
-    });
+    }, centroids ? &*centroids : nullptr);
   }
   TileRebuild& rebuilt = *rebuilt_at;
   {
@@ -610,7 +618,9 @@ py::dict slam_close_loops(PySlam& self, const py::function& read_scan) {
   r["tiles_kept"] = rebuilt.tiles_kept;
   d["rebuild"] = r;
   d["poses"] = poses_array(rebuilt.T_map_sensor);
-  d["map"] = Map(MapFile{std::move(rebuilt.map), {}, std::nullopt, std::nullopt});
+  // The centroids at the corrected poses go with the map, so that Map.save writes them as `hmap
+  // slam` does.
+  d["map"] = Map(MapFile{std::move(rebuilt.map), {}, std::nullopt, std::move(rebuilt.centroids)});
   return d;
 }
 
@@ -1000,7 +1010,9 @@ PYBIND11_MODULE(_hmap, m) {
       .def_property_readonly("cell_size", [](const Map& self) {
         return self.read([](const HMap& map, const OccupancyGrid*, std::span<const GroundPatch>) { return map.cell_size(); });
       })
-      .def("stats", &stats_dict, "Cells, HVoxels, tiles, memory, bounds ((xmin, ymin, zmin), (xmax, ymax, zmax)) or None.")
+      .def("stats", &stats_dict,
+           "Cells, HVoxels, tiles, memory, bounds ((xmin, ymin, zmin), (xmax, ymax, zmax)) or None, ground patches, grid "
+           "cells (None without a grid), and the SLAM's cell centroids (0 for a map without them).")
       .def("occupied", &occupied, py::arg("xyz"), "For an (N, 3) array of points: a bool array, True inside an HVoxel.")
       .def("raycast", &raycast_rays, py::arg("origins"), py::arg("directions"), py::arg("max_range"),
            "raycast(origins, directions, max_range) -> (ranges, points): where rays first meet an HVoxel, walked cell "

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <numbers>
 #include <string>
 
@@ -68,6 +69,46 @@ DriftedLoop drive(std::size_t scans = std::numeric_limits<std::size_t>::max()) {
     d.drifted.push_back(d.drifted.back() * step * bias);
   }
   return d;
+}
+
+/// The SLAM's cell centroids of `scans` at `poses`, summed from scratch as HmapSlam sums them:
+/// each scan HVoxelised in the level frame of its pose's z, roll and pitch, its tall HVoxels'
+/// centroids moved by the pose's x, y and yaw.
+CellCentroids centroids_at(const Params& p, const std::vector<PointCloud>& scans, std::span<const Pose> poses) {
+  CellCentroids out(p.map.cell_size);
+  ScanHVoxelizer level(p.map);
+  level.keep_centroids(true);
+  ScanHVoxels hvoxels;
+  for (std::size_t k = 0; k < scans.size(); ++k) {
+    const PlanarPose at = planar_of(poses[k]);
+    level.build(scans[k], compose(PlanarPose{}, attitude_of(poses[k])), hvoxels);
+    out.add(hvoxels, at.x, at.y, at.yaw, static_cast<float>(p.slam.min_match_height));
+  }
+  return out;
+}
+
+struct SavedCentroid {
+  Eigen::Vector2f offset;
+  double weight;
+};
+std::map<std::pair<int, int>, SavedCentroid> cells_of(const CellCentroids& c) {
+  std::map<std::pair<int, int>, SavedCentroid> out;
+  c.for_each([&](const CellKey& k, const Eigen::Vector2f& o, double w) { out[{k.i, k.j}] = {o, w}; });
+  return out;
+}
+
+/// The same cells, each with its offset within 1 µm and its weight.
+void expect_same_centroids(const CellCentroids& want, const CellCentroids& got) {
+  const auto a = cells_of(want);
+  const auto b = cells_of(got);
+  ASSERT_EQ(a.size(), b.size());
+  for (const auto& [key, c] : a) {
+    const auto it = b.find(key);
+    ASSERT_NE(it, b.end()) << key.first << " " << key.second;
+    EXPECT_NEAR(it->second.offset.x(), c.offset.x(), 1e-6F) << key.first << " " << key.second;
+    EXPECT_NEAR(it->second.offset.y(), c.offset.y(), 1e-6F) << key.first << " " << key.second;
+    EXPECT_EQ(it->second.weight, c.weight) << key.first << " " << key.second;
+  }
 }
 
 double planar_error(const Pose& a, const Pose& b) { return (a.translation() - b.translation()).head<2>().norm(); }
@@ -135,12 +176,80 @@ TEST(LoopClosure, ASmallSimulatedLoopClosesAndTheEndErrorFalls) {
     const double moved = pose_displacement_bound(d.drifted[k], r.T_map_sensor[k], p.map.max_range);
     EXPECT_TRUE(tiles.T_map_sensor[k].isApprox(moved > p.map.cell_size / 10.0 ? r.T_map_sensor[k] : d.drifted[k])) << k;
   }
+  EXPECT_FALSE(tiles.centroids.has_value());  // none given
   // Without the built map, all of it is rebuilt at the corrected poses.
   const TileRebuild whole = map_at_corrected_poses(p, nullptr, d.drifted, r.T_map_sensor, scan);
   EXPECT_TRUE(whole.whole);
   EXPECT_EQ(whole.scans_integrated, d.scans.size());
   EXPECT_EQ(whole.scans_moved, tiles.scans_moved);
   for (std::size_t k = 0; k < d.scans.size(); ++k) EXPECT_TRUE(whole.T_map_sensor[k].isApprox(r.T_map_sensor[k]));
+
+  // The SLAM's cell centroids, summed at the drifted poses, come back as if summed at the result's
+  // poses from the start: summed again from the scans read in the rebuilt tiles, kept elsewhere.
+  const CellCentroids built_centroids = centroids_at(p, d.scans, d.drifted);
+  const TileRebuild with = map_at_corrected_poses(p, &built.map(), d.drifted, r.T_map_sensor, scan, &built_centroids);
+  ASSERT_TRUE(with.centroids.has_value());
+  EXPECT_EQ(with.scans_integrated, tiles.scans_integrated);  // no scan read twice for them
+  test::expect_same_columns(tiles.map, with.map);
+  const CellCentroids want = centroids_at(p, d.scans, with.T_map_sensor);
+  expect_same_centroids(want, *with.centroids);
+  // The correction moved them: the drift was metres.
+  const auto before = cells_of(built_centroids);
+  std::size_t moved = 0;
+  with.centroids->for_each([&](const CellKey& k, const Eigen::Vector2f& o, double) {
+    const auto it = before.find({k.i, k.j});
+    moved += it == before.end() || (it->second.offset - o).norm() > 0.01F ? 1 : 0;
+  });
+  EXPECT_GT(moved, with.centroids->size() / 4);
+  const TileRebuild whole_with = map_at_corrected_poses(p, nullptr, d.drifted, r.T_map_sensor, scan, &built_centroids);
+  ASSERT_TRUE(whole_with.centroids.has_value());
+  expect_same_centroids(centroids_at(p, d.scans, r.T_map_sensor), *whole_with.centroids);
+  // Not kept when the SLAM does not match at centroids; refused for another cell size.
+  Params cell_centres = p;
+  cell_centres.slam.hvoxel_centroids = 0;
+  EXPECT_FALSE(map_at_corrected_poses(cell_centres, &built.map(), d.drifted, r.T_map_sensor, scan, &built_centroids)
+                   .centroids.has_value());
+  const CellCentroids other(0.1);
+  EXPECT_THROW((void)map_at_corrected_poses(p, &built.map(), d.drifted, r.T_map_sensor, scan, &other), Error);
+}
+
+// Only the last 3 of 20 scans (76 m of the drive, round a corner) moved: the centroids of the
+// tiles they cannot reach, at the start, are the built ones bit for bit; all of them are as if
+// summed at the new poses.
+TEST(LoopClosure, CentroidsOfTilesNoMovedScanReachesAreKept) {
+  const DriftedLoop d = drive(20);
+  const Params p = loop_params();
+  Mapper built(p);
+  for (std::size_t k = 0; k < d.scans.size(); ++k) (void)built.integrate(d.scans[k], d.truth[k]);
+  PoseList corrected = d.truth;
+  for (std::size_t k = 17; k < corrected.size(); ++k) corrected[k].translation() += Eigen::Vector3d(0.3, -0.2, 0.0);
+  const CellCentroids built_centroids = centroids_at(p, d.scans, d.truth);
+  std::size_t read = 0;
+  const TileRebuild r = map_at_corrected_poses(p, &built.map(), d.truth, corrected,
+                                               [&](std::size_t k, PointCloud& out) {
+                                                 ++read;
+                                                 out = d.scans[k];
+                                               }, &built_centroids);
+  ASSERT_TRUE(r.centroids.has_value());
+  EXPECT_EQ(r.scans_moved, 3u);
+  EXPECT_EQ(read, r.scans_integrated);  // read once, for the map and the centroids
+  expect_same_centroids(centroids_at(p, d.scans, corrected), *r.centroids);
+  const auto before = cells_of(built_centroids);
+  std::size_t kept = 0;
+  std::size_t rebuilt = 0;
+  r.centroids->for_each([&](const CellKey& k, const Eigen::Vector2f& o, double w) {
+    if (r.rebuilt.contains(HMap::tile_of(k))) {
+      ++rebuilt;
+      return;
+    }
+    const auto it = before.find({k.i, k.j});
+    ASSERT_NE(it, before.end());
+    EXPECT_EQ(it->second.offset, o);
+    EXPECT_EQ(it->second.weight, w);
+    ++kept;
+  });
+  EXPECT_GT(kept, 20u);
+  EXPECT_GT(rebuilt, 100u);
 }
 
 TEST(LoopClosure, AStraightDriveClosesNothingAndChangesNothing) {

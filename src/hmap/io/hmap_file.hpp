@@ -65,7 +65,7 @@ struct MapFile {
   std::vector<GroundPatch> ground;
   std::optional<OccupancyGrid> grid;
   /// Where in its cell the map's surface lies (the SLAM's CellCentroids); absent before version 3,
-  /// possibly empty from it (a map not made by the SLAM, or one whose loops were closed).
+  /// possibly empty from it (a map not made by the SLAM).
   std::optional<CellCentroids> centroids;
 };
 

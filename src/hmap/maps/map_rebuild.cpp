@@ -15,53 +15,45 @@ namespace hmap {
 
 namespace {
 
-/// A set of tiles kept as sorted, disjoint runs [i_begin, i_end] per tile row j: the squares of
-/// a long drive's scans overlap heavily, so this stays small where a bitmap over their bounds
-/// (kilometres at fine cells) or a set of single tiles would not.
-class TileRuns {
- public:
-  void add(const TileSquare& s) {
-    for (std::int32_t j = s.lo.j; j <= s.hi.j; ++j) rows_[j].emplace_back(s.lo.i, s.hi.i);
-  }
-  /// Sorts and unites each row's runs; call after the last add, before the queries.
-  void finish() {
-    for (auto& [j, runs] : rows_) {
-      std::sort(runs.begin(), runs.end());
-      std::size_t kept = 0;
-      for (const auto& r : runs) {
-        if (kept > 0 && r.first <= runs[kept - 1].second + 1) {
-          runs[kept - 1].second = std::max(runs[kept - 1].second, r.second);
-        } else {
-          runs[kept++] = r;
-        }
-      }
-      runs.resize(kept);
-    }
-  }
-  [[nodiscard]] bool contains(const CellKey& tile) const { return overlaps(tile.j, tile.i, tile.i); }
-  [[nodiscard]] bool overlaps(const TileSquare& s) const {
-    for (std::int32_t j = s.lo.j; j <= s.hi.j; ++j) {
-      if (overlaps(j, s.lo.i, s.hi.i)) return true;
-    }
-    return false;
-  }
-
- private:
-  [[nodiscard]] bool overlaps(std::int32_t j, std::int32_t i0, std::int32_t i1) const {
-    const auto row = rows_.find(j);
-    if (row == rows_.end()) return false;
-    const auto& runs = row->second;
-    // The first run ending at or after i0: it overlaps [i0, i1] if it begins by i1.
-    const auto it = std::lower_bound(runs.begin(), runs.end(), i0,
-                                     [](const std::pair<std::int32_t, std::int32_t>& r, std::int32_t v) { return r.second < v; });
-    return it != runs.end() && it->first <= i1;
-  }
-  std::unordered_map<std::int32_t, std::vector<std::pair<std::int32_t, std::int32_t>>> rows_;
-};
-
 bool finite_pose(const Pose& T) { return T.matrix().allFinite(); }
 
 }  // namespace
+
+void TileRuns::add(const TileSquare& s) {
+  for (std::int32_t j = s.lo.j; j <= s.hi.j; ++j) rows_[j].emplace_back(s.lo.i, s.hi.i);
+}
+
+void TileRuns::finish() {
+  for (auto& [j, runs] : rows_) {
+    std::sort(runs.begin(), runs.end());
+    std::size_t kept = 0;
+    for (const auto& r : runs) {
+      if (kept > 0 && r.first <= runs[kept - 1].second + 1) {
+        runs[kept - 1].second = std::max(runs[kept - 1].second, r.second);
+      } else {
+        runs[kept++] = r;
+      }
+    }
+    runs.resize(kept);
+  }
+}
+
+bool TileRuns::overlaps(const TileSquare& s) const {
+  for (std::int32_t j = s.lo.j; j <= s.hi.j; ++j) {
+    if (overlaps(j, s.lo.i, s.hi.i)) return true;
+  }
+  return false;
+}
+
+bool TileRuns::overlaps(std::int32_t j, std::int32_t i0, std::int32_t i1) const {
+  const auto row = rows_.find(j);
+  if (row == rows_.end()) return false;
+  const auto& runs = row->second;
+  // The first run ending at or after i0: it overlaps [i0, i1] if it begins by i1.
+  const auto it = std::lower_bound(runs.begin(), runs.end(), i0,
+                                   [](const std::pair<std::int32_t, std::int32_t>& r, std::int32_t v) { return r.second < v; });
+  return it != runs.end() && it->first <= i1;
+}
 
 double pose_displacement_bound(const Pose& a, const Pose& b, double max_range) {
   const Eigen::Matrix3d turn = b.linear() * a.linear().transpose();
@@ -86,7 +78,8 @@ TileSquare scan_tile_square(const MapParams& params, const Pose& T_map_sensor) {
 }
 
 TileRebuild rebuild_moved_tiles(const HMap& built, std::span<const Pose> T_built, std::span<const Pose> T_corrected,
-                                double tolerance, const std::function<void(std::size_t, PointCloud&)>& scan) {
+                                double tolerance, const std::function<void(std::size_t, PointCloud&)>& scan,
+                                const RebuiltScan& integrated) {
   if (T_built.size() != T_corrected.size()) {
     throw Error(format("rebuilding the map: %zu poses it was built at but %zu corrected ones", T_built.size(),
                        T_corrected.size()));
@@ -98,7 +91,7 @@ TileRebuild rebuild_moved_tiles(const HMap& built, std::span<const Pose> T_built
   const std::size_t n = T_built.size();
   TileRebuild out{HMap(built.params()), PoseList(T_built.begin(), T_built.end())};
   // Which scans moved, and the tiles they reached before or reach now.
-  TileRuns dirty;
+  TileRuns& dirty = out.rebuilt;
   std::vector<TileSquare> square(n);
   for (std::size_t k = 0; k < n; ++k) {
     if (!finite_pose(T_built[k]) || !finite_pose(T_corrected[k])) {
@@ -123,6 +116,7 @@ TileRebuild rebuild_moved_tiles(const HMap& built, std::span<const Pose> T_built
       points.clear();
       scan(k, points);
       (void)mapper.integrate(points, out.T_map_sensor[k]);
+      if (integrated) integrated(k, points, out.T_map_sensor[k]);
       ++out.scans_integrated;
     }
   }

@@ -6,6 +6,7 @@
 #include <optional>
 
 #include "hmap/core/error.hpp"
+#include "hmap/core/format.hpp"
 #include "hmap/slam/hmap_slam.hpp"
 #include "hmap/slam/map_align.hpp"
 
@@ -249,30 +250,68 @@ LoopClosureResult LoopCloser::close() {
 }
 
 HMap rebuild_map(const Params& params, std::span<const Pose> T_map_sensor,
-                 const std::function<void(std::size_t, PointCloud&)>& scan) {
+                 const std::function<void(std::size_t, PointCloud&)>& scan, const RebuiltScan& integrated) {
   Mapper mapper(params);
   PointCloud points;
   for (std::size_t k = 0; k < T_map_sensor.size(); ++k) {
     points.clear();
     scan(k, points);
     (void)mapper.integrate(points, T_map_sensor[k]);
+    if (integrated) integrated(k, points, T_map_sensor[k]);
   }
   return std::move(mapper.map());
 }
 
 TileRebuild map_at_corrected_poses(const Params& params, const HMap* built, std::span<const Pose> T_built,
                                    std::span<const Pose> T_corrected,
-                                   const std::function<void(std::size_t, PointCloud&)>& scan) {
-  if (built != nullptr) return rebuild_moved_tiles(*built, T_built, T_corrected, params.map.cell_size / 10.0, scan);
-  TileRebuild out{rebuild_map(params, T_corrected, scan), PoseList(T_corrected.begin(), T_corrected.end())};
-  out.whole = true;
-  for (std::size_t k = 0; k < T_corrected.size(); ++k) {
-    const bool moved = k >= T_built.size() ||
-                       pose_displacement_bound(T_built[k], T_corrected[k], params.map.max_range) > params.map.cell_size / 10.0;
-    out.scans_moved += moved ? 1 : 0;
+                                   const std::function<void(std::size_t, PointCloud&)>& scan,
+                                   const CellCentroids* centroids) {
+  if (centroids != nullptr && params.slam.hvoxel_centroids < 2) centroids = nullptr;
+  if (centroids != nullptr && centroids->cell_size() != params.map.cell_size) {
+    throw Error(format("rebuilding the cell centroids: they are of %g m cells, the map of %g m", centroids->cell_size(),
+                       params.map.cell_size));
   }
-  out.scans_integrated = T_corrected.size();
-  out.tiles_rebuilt = out.map.stats().tiles;
+  // The centroids of the scans read again, as HmapSlam sums them: in the level frame of the
+  // pose's attitude, moved into the map by its planar part.
+  std::optional<CellCentroids> fresh;
+  ScanHVoxelizer level(params.map);
+  ScanHVoxels hvoxels;
+  RebuiltScan add_centroids;
+  if (centroids != nullptr) {
+    fresh.emplace(params.map.cell_size);
+    level.keep_centroids(true);
+    add_centroids = [&](std::size_t, const PointCloud& points, const Pose& T) {
+      const PlanarPose at = planar_of(T);
+      level.build(points, compose(PlanarPose{}, attitude_of(T)), hvoxels);
+      fresh->add(hvoxels, at.x, at.y, at.yaw, static_cast<float>(params.slam.min_match_height));
+    };
+  }
+  const auto whole_map = [&] {
+    TileRebuild w{rebuild_map(params, T_corrected, scan, add_centroids), PoseList(T_corrected.begin(), T_corrected.end())};
+    w.whole = true;
+    for (std::size_t k = 0; k < T_corrected.size(); ++k) {
+      const bool moved = k >= T_built.size() ||
+                         pose_displacement_bound(T_built[k], T_corrected[k], params.map.max_range) > params.map.cell_size / 10.0;
+      w.scans_moved += moved ? 1 : 0;
+    }
+    w.scans_integrated = T_corrected.size();
+    w.tiles_rebuilt = w.map.stats().tiles;
+    return w;
+  };
+  TileRebuild out = built != nullptr
+                        ? rebuild_moved_tiles(*built, T_built, T_corrected, params.map.cell_size / 10.0, scan, add_centroids)
+                        : whole_map();
+  if (centroids != nullptr) {
+    // The rebuilt tiles' centroids from the scans read again; the others' as they were.
+    out.centroids.emplace(params.map.cell_size);
+    const auto rebuilt = [&](const CellKey& cell) { return out.whole || out.rebuilt.contains(HMap::tile_of(cell)); };
+    centroids->for_each([&](const CellKey& cell, const Eigen::Vector2f& offset, double weight) {
+      if (!rebuilt(cell)) out.centroids->restore(cell, offset, weight);
+    });
+    fresh->for_each([&](const CellKey& cell, const Eigen::Vector2f& offset, double weight) {
+      if (rebuilt(cell)) out.centroids->restore(cell, offset, weight);
+    });
+  }
   return out;
 }
 

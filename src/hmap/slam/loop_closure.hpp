@@ -75,19 +75,31 @@ class LoopCloser {
 };
 
 /// The map built again from `scans` scans at `T_map_sensor` (the corrected poses): scan(k, out)
-/// fills `out` with scan k's points in the sensor frame. The whole map is rebuilt (the HMAP's
-/// merging is per column, but extrusion frees space along rays that cross many tiles).
+/// fills `out` with scan k's points in the sensor frame, passed on to integrated(k, points, pose)
+/// when given. The whole map is rebuilt (the HMAP's merging is per column, but extrusion frees
+/// space along rays that cross many tiles).
 [[nodiscard]] HMap rebuild_map(const Params& params, std::span<const Pose> T_map_sensor,
-                               const std::function<void(std::size_t, PointCloud&)>& scan);
+                               const std::function<void(std::size_t, PointCloud&)>& scan,
+                               const RebuiltScan& integrated = {});
 
 /// The map at the loop-corrected poses. When `built` is given, it must be the scans as
 /// scan(k, out) reads them integrated at T_built[k], in order (the SLAM's map when no scan was
 /// deskewed): only the tiles the moved scans reach are rebuilt (rebuild_moved_tiles, a scan
 /// counting as moved when its correction moves a point within map.max_range by more than a tenth
 /// of a cell; the others keep their built pose). Without it the whole map is rebuilt at
-/// T_corrected (result.whole). Throws hmap::Error as rebuild_moved_tiles does.
+/// T_corrected (result.whole).
+///
+/// `centroids`: the SLAM's cell centroids (slam.hvoxel_centroids 2), summed at T_built as
+/// HmapSlam sums them. result.centroids then holds them at result.T_map_sensor: each scan read
+/// again adds its tall HVoxels' centroids (at least slam.min_match_height; HVoxelised in the level
+/// frame of its pose's z, roll and pitch, moved by its x, y and yaw), in the tiles rebuilt (all
+/// of them when the whole map is); elsewhere those of `centroids` stay as they were. Without
+/// them, or with slam.hvoxel_centroids below 2, result.centroids is empty.
+///
+/// Throws hmap::Error as rebuild_moved_tiles does, and for centroids of another cell size.
 [[nodiscard]] TileRebuild map_at_corrected_poses(const Params& params, const HMap* built, std::span<const Pose> T_built,
                                                  std::span<const Pose> T_corrected,
-                                                 const std::function<void(std::size_t, PointCloud&)>& scan);
+                                                 const std::function<void(std::size_t, PointCloud&)>& scan,
+                                                 const CellCentroids* centroids = nullptr);
 
 }  // namespace hmap::slam
