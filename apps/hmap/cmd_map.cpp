@@ -141,10 +141,14 @@ void run_map(const MapOptions& o) {
                        total.dropped_range, params.map.min_range, params.map.max_range));
   }
   const HMap& map = o.hvoxels_only ? mapper.map() : hybrid.map();
+  // A continued SLAM map keeps the cell centroids it was saved with (the scans added here, at
+  // given poses, add none: a cell they alone reach is read at its centre by a later `hmap slam
+  // --continue`).
+  const CellCentroids* centroids = old && old->centroids ? &*old->centroids : nullptr;
   if (o.hvoxels_only) {
-    save_hmap(o.out, map);
+    save_hmap(o.out, map, {}, nullptr, centroids);
   } else {
-    save_hmap(o.out, map, hybrid.ground_patches(), &hybrid.grid());
+    save_hmap(o.out, map, hybrid.ground_patches(), &hybrid.grid(), centroids);
   }
   const MapStats st = map.stats();
   const auto n = static_cast<double>(src.scans.size());

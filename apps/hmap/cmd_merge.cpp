@@ -63,6 +63,14 @@ void run_merge(const MergeOptions& o) {
   const bool moved = shift.x != 0.0 || shift.y != 0.0 || shift.z != 0.0 || shift.yaw != 0.0;
   const HMap b_map = moved ? shifted_map(b.map, shift, memory_budget()) : HMap(b.map.params());
   const MapMergeStats st = merge_map(a.map, moved ? b_map : b.map, memory_budget());
+  // The SLAM's cell centroids (`hmap slam`'s maps) of either map, the second's moved as its map;
+  // a cell with none is read at its centre by a session that continues the merged map.
+  const CellCentroids* centroids = nullptr;
+  if (b.centroids && b.centroids->size() > 0) {
+    if (!a.centroids) a.centroids.emplace(a.map.cell_size());
+    a.centroids->add(*b.centroids, shift.x, shift.y, shift.yaw);
+  }
+  if (a.centroids && a.centroids->size() > 0) centroids = &*a.centroids;
   // The 2D grid and the ground patches only when both maps hold them: half a grid would show
   // one session's area as unknown.
   const bool layers = a.grid.has_value() && b.grid.has_value();
@@ -74,9 +82,9 @@ void run_merge(const MergeOptions& o) {
       add_evidence(*a.grid, *b.grid);
     }
     patches_kept = join_ground(a.ground, moved ? shifted_ground(b.ground, shift) : b.ground);
-    save_hmap(o.out, a.map, a.ground, &*a.grid);
+    save_hmap(o.out, a.map, a.ground, &*a.grid, centroids);
   } else {
-    save_hmap(o.out, a.map);
+    save_hmap(o.out, a.map, {}, nullptr, centroids);
   }
   std::printf("Merged %s into %s: %zu columns added, %zu merged; %zu + %zu HVoxels -> %zu. Saved to %s (%s).\n",
               o.second.c_str(), o.first.c_str(), st.columns_added, st.columns_merged, st.hvoxels_before, st.hvoxels_from,
@@ -89,6 +97,9 @@ void run_merge(const MergeOptions& o) {
   } else {
     std::printf("The HMAP alone was merged: %s has no 2D grid or ground patches (saved with --hvoxels-only).\n",
                 a.grid ? o.second.c_str() : o.first.c_str());
+  }
+  if (centroids != nullptr) {
+    std::printf("The SLAM's cell centroids kept (the second map's moved with it): %zu cells.\n", centroids->size());
   }
 }
 

@@ -164,6 +164,13 @@ void save(const Map& m, const std::filesystem::path& path) {
   });
 }
 
+/// An exact copy of cell centroids (their offsets as they are, not summed again).
+CellCentroids copy_of(const CellCentroids& c) {
+  CellCentroids out(c.cell_size());
+  c.for_each([&](const CellKey& k, const Eigen::Vector2f& o, double w) { out.restore(k, o, w); });
+  return out;
+}
+
 py::dict stats_dict(const Map& m) {
   return m.read([&m](const HMap& map, const OccupancyGrid* grid, std::span<const GroundPatch> ground) {
     const MapStats s = map.stats();
@@ -561,9 +568,7 @@ py::dict slam_close_loops(PySlam& self, const py::function& read_scan) {
       merge_map(*built, box.slam->map());  // into an empty map: an exact copy
     }
     if (!closed.closures.empty()) {
-      const CellCentroids& live = box.slam->map_centroids();
-      centroids.emplace(live.cell_size());
-      live.for_each([&](const CellKey& c, const Eigen::Vector2f& o, double w) { centroids->restore(c, o, w); });
+      centroids = copy_of(box.slam->map_centroids());
     }
   }
   py::dict d;
@@ -904,6 +909,13 @@ Map merge_maps(const Map& a, const Map& b, const std::array<double, 4>& shift_xy
         join_ground(out.ground, ground_b);
       }
     }
+    // The SLAM's cell centroids of either map, the second's moved as its map (as `hmap merge`).
+    const CellCentroids* centroids_a = a.centroids();
+    const CellCentroids* centroids_b = b.centroids();
+    if ((centroids_a != nullptr && centroids_a->size() > 0) || (centroids_b != nullptr && centroids_b->size() > 0)) {
+      out.centroids = centroids_a != nullptr ? copy_of(*centroids_a) : CellCentroids(map_a.cell_size());
+      if (centroids_b != nullptr) out.centroids->add(*centroids_b, shift.x, shift.y, shift.yaw);
+    }
     return Map(std::move(out));
   });
 }
@@ -942,7 +954,8 @@ void bind_merge(py::module_& m) {
         py::arg("shift") = std::array<double, 4>{0.0, 0.0, 0.0, 0.0},
         "`hmap merge`: a new Map, `a` with `b` merged in (III-D per column; a column only one map holds is copied "
         "exactly), `b` first moved by shift = (x, y, z [m], yaw [rad]), its frame in `a`'s. The 2D grids' "
-        "log-odds add and the ground patches join when both maps hold them. Same cell size required (hmap.Error).");
+        "log-odds add and the ground patches join when both maps hold them; the SLAM's cell centroids of either are "
+        "kept (`b`'s moved with it). Same cell size required (hmap.Error).");
   m.def("align_maps", &align_maps_dict, py::arg("a"), py::arg("b"), py::kw_only(),
         py::arg("guess") = std::array<double, 4>{0.0, 0.0, 0.0, 0.0}, py::arg("search") = 5.0, py::arg("search_yaw") = 0.5,
         "`hmap merge --align`: registers `b` onto `a` (the scan matcher over the overlapping columns after a coarse "
@@ -1106,17 +1119,15 @@ PYBIND11_MODULE(_hmap, m) {
           where.guess = {start[0], start[1], start[2]};
           where.search_translation = search;
           where.search_rotation = search_yaw;
-          HMap copy = continue_map->read([](const HMap& saved, const OccupancyGrid*, std::span<const GroundPatch>) {
+          // The map and its centroids (slam.hvoxel_centroids 2: saved with it, or a live SLAM's),
+          // copied under its lock: the Map stays as it was.
+          std::optional<CellCentroids> centroids;
+          HMap copy = continue_map->read([&](const HMap& saved, const OccupancyGrid*, std::span<const GroundPatch>) {
             HMap out(saved.params());
             merge_map(out, saved);  // into an empty map: an exact copy
+            if (const CellCentroids* c = continue_map->centroids()) centroids = copy_of(*c);
             return out;
           });
-          // The centroids saved with it (slam.hvoxel_centroids 2), copied: the Map stays as it was.
-          std::optional<CellCentroids> centroids;
-          if (const CellCentroids* saved = continue_map->file_centroids()) {
-            centroids.emplace(saved->cell_size());
-            saved->for_each([&](const CellKey& c, const Eigen::Vector2f& o, double w) { centroids->restore(c, o, w); });
-          }
           box->slam.emplace(p, std::move(copy), where, std::move(centroids));
         } else {
           box->slam.emplace(p);

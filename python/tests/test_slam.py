@@ -201,6 +201,12 @@ def test_slam_continues_a_saved_map_as_the_cli_does(tmp_path):
     # The saved map is built on, not changed: the loaded one still holds what it held, and saved
     # again it is the same file, its cell centroids included (format version 3).
     assert slam.map.stats()["hvoxels"] > saved.stats()["hvoxels"]
+    # A live SLAM's map continues with its cell centroids too, and merge_maps keeps them (a map
+    # merged with itself: the same cells, each weighed twice).
+    assert 0 < saved.stats()["cell_centroids"] < slam.map.stats()["cell_centroids"]
+    again = hmap.slam.Slam(hmap.params_for_scan(scans[0])["params"], continue_map=slam.map)
+    assert again.map.stats()["cell_centroids"] == slam.map.stats()["cell_centroids"]
+    assert hmap.merge_maps(saved, saved).stats()["cell_centroids"] == saved.stats()["cell_centroids"]
     saved.save(tmp_path / "A2.hmap")
     assert (tmp_path / "A2.hmap").read_bytes() == (tmp_path / "A" / "map.hmap").read_bytes()
     with pytest.raises(hmap.Error, match="search"):

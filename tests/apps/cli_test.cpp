@@ -881,6 +881,34 @@ TEST_F(CliTest, SlamContinuesASavedMapInItsFrame) {
   EXPECT_GT(s1.centroids->size(), 100U);
   EXPECT_GT(s2.centroids->size(), s1.centroids->size());
   EXPECT_NE(two.out.find(std::to_string(s1.centroids->size()) + " cell centroids before"), std::string::npos) << two.out;
+  // hmap map --continue keeps them as saved (its scans, at given poses, add none), and hmap merge
+  // unites two sessions' (the same frame here: each cell's weights add up).
+  const CmdResult mapped = run("map" + second + " --poses " + path("s2/poses.txt") + " --continue " + path("s1/map.hmap") +
+                               " --hvoxels-only --out " + path("m.hmap"));
+  ASSERT_EQ(mapped.code, 0) << mapped.out;
+  // (A file holds the centroids of the tiles its map stores: those whose HVoxels the new scans
+  // carved away all go.)
+  const MapFile m = load_map_file(dir_ / "m.hmap");
+  ASSERT_TRUE(m.centroids.has_value());
+  EXPECT_LE(m.centroids->size(), s1.centroids->size());
+  EXPECT_GT(m.centroids->size(), s1.centroids->size() * 9 / 10);
+  m.centroids->for_each([&](const CellKey& k, const Eigen::Vector2f& o, double) {
+    const Eigen::Vector2f* saved = s1.centroids->offset(k);
+    ASSERT_NE(saved, nullptr);
+    EXPECT_EQ(*saved, o);
+  });
+  const CmdResult merged = run("merge " + path("s1/map.hmap") + " " + path("s2/map.hmap") + " --out " + path("u.hmap"));
+  ASSERT_EQ(merged.code, 0) << merged.out;
+  const MapFile u = load_map_file(dir_ / "u.hmap");
+  ASSERT_TRUE(u.centroids.has_value());
+  EXPECT_GE(u.centroids->size(), s2.centroids->size());
+  std::map<std::pair<int, int>, double> weight;
+  for (const MapFile* f : {&s1, &s2}) {
+    f->centroids->for_each([&](const CellKey& k, const Eigen::Vector2f&, double w) { weight[{k.i, k.j}] += w; });
+  }
+  u.centroids->for_each([&](const CellKey& k, const Eigen::Vector2f&, double w) {
+    EXPECT_NEAR(w, (weight[{k.i, k.j}]), 1e-9 * w) << k.i << " " << k.j;
+  });
 
   // Bad combinations: one line, exit 2, nothing written.
   const std::string tail = second + " --out " + path("bad");

@@ -53,6 +53,33 @@ TEST(CellCentroids, OffsetsByHand) {
   EXPECT_NEAR(c.offset({19, 40})->y(), 20.175 - 20.25, 1e-5);
 }
 
+// By hand: a centroid 0.05, −0.02 m from the centre of cell (0, 0) of 0.25 m, at (0.175, 0.105),
+// weight 3, moved by (1, 2) and turned 90°: (1 − 0.105, 2 + 0.175) = (0.895, 2.175), cell (3, 8),
+// centre (0.875, 2.125), offset (0.02, 0.05). Into a cell holding (0.9, 2.2) with weight 1:
+// (3·(0.895, 2.175) + (0.9, 2.2)) / 4 = (0.89625, 2.18125).
+TEST(CellCentroids, AnotherMapsCentroidsAddedMovedByItsPose) {
+  CellCentroids other(0.25);
+  other.restore({0, 0}, {0.05F, -0.02F}, 3.0);
+  CellCentroids c(0.25);
+  c.add(other, 1.0, 2.0, std::numbers::pi / 2.0);
+  ASSERT_EQ(c.size(), 1U);
+  ASSERT_NE(c.offset({3, 8}), nullptr);
+  EXPECT_NEAR(c.offset({3, 8})->x(), 0.02, 1e-6);
+  EXPECT_NEAR(c.offset({3, 8})->y(), 0.05, 1e-6);
+  CellCentroids d(0.25);
+  d.add(0.9, 2.2, 1.0);
+  d.add(other, 1.0, 2.0, std::numbers::pi / 2.0);
+  ASSERT_EQ(d.size(), 1U);
+  EXPECT_NEAR(d.offset({3, 8})->x(), 0.89625 - 0.875, 1e-6);
+  EXPECT_NEAR(d.offset({3, 8})->y(), 2.18125 - 2.125, 1e-6);
+  // Into itself: the same offsets, each weight doubled.
+  d.add(d, 0.0, 0.0, 0.0);
+  EXPECT_EQ(d.size(), 1U);
+  EXPECT_NEAR(d.offset({3, 8})->x(), 0.89625 - 0.875, 1e-6);
+  d.for_each([](const CellKey&, const Eigen::Vector2f&, double w) { EXPECT_DOUBLE_EQ(w, 8.0); });
+  EXPECT_THROW(c.add(CellCentroids(0.5), 0.0, 0.0, 0.0), Error);
+}
+
 TEST(CellCentroids, AScanWithoutCentroidsAddsNothingAndABadCellIsRefused) {
   CellCentroids c(0.2);
   ScanHVoxels scan = hand_scan();

@@ -1,6 +1,7 @@
 #include "hmap/maps/cell_centroids.hpp"
 
 #include <cmath>
+#include <vector>
 
 #include "hmap/core/checked.hpp"
 #include "hmap/core/error.hpp"
@@ -34,6 +35,22 @@ void CellCentroids::add(double x, double y, double weight) {
   sums += Eigen::Vector3d(weight * x, weight * y, weight);
   tile.offset[local] = Eigen::Vector2f(static_cast<float>(sums.x() / sums.z() - (key.i + 0.5) * cell_),
                                        static_cast<float>(sums.y() / sums.z() - (key.j + 0.5) * cell_));
+}
+
+void CellCentroids::add(const CellCentroids& other, double x, double y, double yaw) {
+  if (other.cell_ != cell_) {
+    throw Error(format("cell centroids: adding %g m cells' centroids to %g m ones", other.cell_, cell_));
+  }
+  // Read whole before the first add: `other` may be this.
+  std::vector<Eigen::Vector3d> points;
+  points.reserve(other.size());
+  other.for_each([&](const CellKey& k, const Eigen::Vector2f& offset, double weight) {
+    points.emplace_back((k.i + 0.5) * other.cell_ + static_cast<double>(offset.x()),
+                        (k.j + 0.5) * other.cell_ + static_cast<double>(offset.y()), weight);
+  });
+  const double c = std::cos(yaw);
+  const double s = std::sin(yaw);
+  for (const Eigen::Vector3d& p : points) add(x + c * p.x() - s * p.y(), y + s * p.x() + c * p.y(), p.z());
 }
 
 void CellCentroids::restore(const CellKey& cell, const Eigen::Vector2f& offset, double weight) {

@@ -54,6 +54,12 @@ class CellCentroids {
   /// a weight that is not positive add nothing.
   void add(double x, double y, double weight);
 
+  /// Adds the centroids of `other` (another session's map, `hmap merge`), each moved into this
+  /// map's frame by the planar pose (x, y, yaw): its point, the cell's centre plus its offset, with
+  /// its weight, into the cell it lands in. `other` may be this. Throws hmap::Error for another
+  /// cell size.
+  void add(const CellCentroids& other, double x, double y, double yaw);
+
   /// The offset [m] of the cell's centroid from the cell's centre, or nullptr for a cell nothing
   /// tall was merged into.
   [[nodiscard]] const Eigen::Vector2f* offset(const CellKey& key) const {
