@@ -10,12 +10,15 @@
 #include <numbers>
 
 #include "hmap/core/error.hpp"
+#include "hmap/io/config.hpp"
 #include "hmap/io/gravity.hpp"
 #include "hmap/maps/map_merge.hpp"
 #include "hmap/sim/builtin_scenes.hpp"
+#include "hmap/sim/city.hpp"
 #include "hmap/sim/composites.hpp"
 #include "hmap/sim/scene.hpp"
 #include "hmap/sim/sensors.hpp"
+#include "hmap/sim/trajectory.hpp"
 
 namespace hmap::slam {
 namespace hmap_slam_test {
@@ -223,6 +226,33 @@ TEST(HmapSlam, WallRefinementPlacesScansWithinACellSmallerMatch) {
       EXPECT_GE(step.walls.pairs, 100U) << k;
     }
   }
+}
+
+// The town's ground rises 2 % along x (city.hpp): a VLP-16 on a car there pitches by 1.15°. The
+// first scan levelled by its floor takes that slope for level; with slam.wall_tilt_drift the
+// walls' lean (their points aside by height) turns it to gravity's up, within 0.15°.
+TEST(HmapSlam, TheWallsLevelTheFirstScanOnASlope) {
+  sim::CityParams city;
+  city.blocks = 2;
+  city.block_size = 40.0;
+  const sim::Scene scene = sim::make_city_scene(city);
+  const auto route = sim::city_loop_route(city, 150.0, 30.0);
+  const sim::Trajectory path = sim::car_path(route, sim::CarPathParams{});
+  ASSERT_FALSE(path.T_world_sensor.empty());
+  const Pose truth = path.T_world_sensor.front();
+  const Eigen::Vector3d up_truth = truth.linear().transpose() * Eigen::Vector3d::UnitZ();  // gravity in the sensor frame
+  ASSERT_GT(std::acos(up_truth.z()), 0.8 * kDeg);  // the slope is there
+  const PointCloud scan = sim::SpinningLidar(sim::SpinningLidarParams::vlp16()).scan(scene, truth, 0.0).points_sensor;
+  const auto up_error = [&](double drift) {
+    Params p = resolve_params_for_scan(ParamSources{}, scan).params;  // as `hmap slam` chooses them
+    p.slam.wall_tilt_drift = drift;
+    HmapSlam slam(p);
+    const SlamStep step = slam.process(scan, std::nullopt);
+    const Eigen::Vector3d up = step.T_map_sensor.linear().transpose() * Eigen::Vector3d::UnitZ();
+    return std::acos(std::clamp(up.dot(up_truth), -1.0, 1.0));
+  };
+  EXPECT_GT(up_error(0.0), 0.8 * kDeg);  // the floor's slope, taken for level
+  EXPECT_LT(up_error(0.0005), 0.15 * kDeg);
 }
 
 TEST(HmapSlam, RejectsInvalidParameters) {

@@ -186,6 +186,9 @@ std::vector<ParamRef> param_refs(Params& p) {
   r.push_back(ref_int("slam.hvoxel_centroids", "-",
                       "2: match scan HVoxels at their points' plan centroids and the map's cells at their tall points' centroids; 1: the scan's only; 0: at their cells' centres (the paper's eq. 6)",
                       s.hvoxel_centroids, closed(0.0, 2.0)));
+  r.push_back(ref("slam.wall_tilt_drift", "rad",
+                  "per scan: how far the tilt from the floors may wander between scans; the walls' lean corrects it (0 = off)",
+                  s.wall_tilt_drift, closed(0.0, 0.1)));
   r.push_back(ref_int("slam.wall_refine", "-", "1: refine x, y and yaw against the map's walls after the planar match; 0: off",
                       s.wall_refine, closed(0.0, 1.0)));
   r.push_back(ref("slam.wall_min_height", "m", "points of HVoxels at least this tall count as walls (wall refinement)",

@@ -1,5 +1,7 @@
 #include "hmap/maps/scan_hvoxels.hpp"
 
+#include <Eigen/Eigenvalues>
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -45,6 +47,7 @@ void ScanHVoxelizer::build(std::span<const Point3f> points_sensor, const Pose& T
   index_points(points_sensor, T_map_sensor, out);
   cluster_heights(out);
   out.centroids.clear();
+  out.wall_lean = WallLean{};
   if (keep_centroids_) sum_centroids(out);
 }
 
@@ -272,6 +275,71 @@ void ScanHVoxelizer::cluster_heights(ScanHVoxels& out) {
   });
 }
 
+Eigen::Vector2d WallLean::lean() const {
+  if (walls == 0) return Eigen::Vector2d::Zero();
+  return information.ldlt().solve(weighted);
+}
+
+double WallLean::weakest() const {
+  return walls == 0 ? 0.0 : Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(information, Eigen::EigenvaluesOnly).eigenvalues()(0);
+}
+
+void ScanHVoxelizer::sum_wall_lean(ScanHVoxels& out) {
+  // Per HVoxel the points' moments (plan from the origin, z as binned), then per wall its lean
+  // L = cov(xy, z) / S along its normal n (the plan scatter's least direction), weighed by S/σ².
+  const std::size_t n = out.hvoxels.size();
+  moments_.assign(n, std::array<double, 9>{});
+  for (std::size_t k = 0; k < point_cell_.size(); ++k) {
+    const ScanCell& cell = out.cells[point_cell_[k]];
+    const float z = point_z_[k];
+    if (out.hvoxels[cell.first + cell.count - 1].z_max - out.hvoxels[cell.first].z_min < WallLean::kMinHeight) continue;
+    std::uint32_t h = cell.first;
+    const std::uint32_t last = cell.first + cell.count - 1;
+    while (h < last && z > out.hvoxels[h].z_max) ++h;
+    const double x = point_xy_[k].x();
+    const double y = point_xy_[k].y();
+    const double zd = z;
+    std::array<double, 9>& m = moments_[h];
+    m[0] += x;
+    m[1] += y;
+    m[2] += zd;
+    m[3] += x * x;
+    m[4] += x * y;
+    m[5] += y * y;
+    m[6] += x * zd;
+    m[7] += y * zd;
+    m[8] += zd * zd;
+  }
+  WallLean& w = out.wall_lean;
+  w = WallLean{};
+  for (std::size_t h = 0; h < n; ++h) {
+    const HVoxel& v = out.hvoxels[h];
+    const double count = centroid_sums_[h].z();
+    if (v.height() < WallLean::kMinHeight || count < static_cast<double>(WallLean::kMinPoints)) continue;
+    const std::array<double, 9>& m = moments_[h];
+    const Eigen::Vector2d mean(m[0] / count, m[1] / count);
+    const double z_mean = m[2] / count;
+    Eigen::Matrix2d C;  // Σ (p − p̄)(p − p̄)ᵀ in plan
+    C(0, 0) = m[3] - count * mean.x() * mean.x();
+    C(0, 1) = C(1, 0) = m[4] - count * mean.x() * mean.y();
+    C(1, 1) = m[5] - count * mean.y() * mean.y();
+    const Eigen::Vector2d c_xz(m[6] - count * mean.x() * z_mean, m[7] - count * mean.y() * z_mean);
+    const double S = m[8] - count * z_mean * z_mean;
+    if (!(S > 0.0)) continue;
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(C);
+    if (!(eig.eigenvalues()(1) >= 4.0 * eig.eigenvalues()(0))) continue;  // no one direction: not a wall
+    const Eigen::Vector2d normal = eig.eigenvectors().col(0);
+    const Eigen::Vector2d L = c_xz / S;
+    // The scatter across the wall about the fitted lean, per point (two parameters fitted).
+    const double across = normal.dot(C * normal) - std::pow(normal.dot(c_xz), 2) / S;
+    const double sigma2 = std::max(across / (count - 2.0), 1e-6);  // (1 mm)² at least
+    const double info = S / sigma2;
+    w.information += info * normal * normal.transpose();
+    w.weighted += info * normal * normal.dot(L);
+    ++w.walls;
+  }
+}
+
 void ScanHVoxelizer::sum_centroids(ScanHVoxels& out) {
   // Each kept point is in exactly one HVoxel of its cell: the cluster whose bounds hold its height
   // (the bounds are the extreme heights themselves, the same floats). The sums are relative to the
@@ -287,6 +355,7 @@ void ScanHVoxelizer::sum_centroids(ScanHVoxels& out) {
     while (h < last && z > out.hvoxels[h].z_max) ++h;
     sums[h] += Eigen::Vector3d(point_xy_[k].x(), point_xy_[k].y(), 1.0);
   }
+  if (keep_wall_lean_) sum_wall_lean(out);
   out.centroids.resize(n);
   const Eigen::Vector2d origin = out.origin_map.head<2>();
   for (std::size_t h = 0; h < n; ++h) {

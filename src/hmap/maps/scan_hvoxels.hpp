@@ -43,6 +43,24 @@ struct ScanCell {
   std::uint32_t count = 0;
 };
 
+/// How the walls of one scan lean in the frame it was binned in: where that frame's z is not
+/// gravity's, a wall's points at height z lie z·δ aside (δ = dx/dz, dy/dz), and each wall tells
+/// the component of δ along its normal. Summed over walls (HVoxels at least kMinHeight tall whose
+/// points spread in plan along one direction at least twice as far as across it), each weighed by
+/// its information S/σ² (S: the points' Σ(z − z̄)², σ²: their scatter across the wall about the
+/// fitted lean).
+struct WallLean {
+  static constexpr double kMinHeight = 1.0;   ///< [m] a wall's HVoxel, at least
+  static constexpr std::size_t kMinPoints = 10;
+  Eigen::Matrix2d information = Eigen::Matrix2d::Zero();  ///< Σ (S/σ²) n nᵀ [1/(m/m)²]
+  Eigen::Vector2d weighted = Eigen::Vector2d::Zero();     ///< Σ (S/σ²) n (n · L)
+  std::size_t walls = 0;
+  /// δ by least squares over the walls.
+  [[nodiscard]] Eigen::Vector2d lean() const;
+  /// The smaller eigenvalue of `information`: 1/σ² of δ along its worst-held direction.
+  [[nodiscard]] double weakest() const;
+};
+
 /// R: the HVoxels of one scan in the map frame, with what happened to its points.
 struct ScanHVoxels {
   Eigen::Vector3d origin_map = Eigen::Vector3d::Zero();  ///< sensor origin [m]
@@ -53,6 +71,8 @@ struct ScanHVoxels {
   /// frame; empty unless the builder keeps them (ScanHVoxelizer::keep_centroids). Within its cell,
   /// where the cell's centre is only within half a cell of the surface.
   std::vector<Eigen::Vector2f> centroids;
+  /// The walls' lean in this frame; zero unless the builder measures it (keep_wall_lean).
+  WallLean wall_lean;
   std::size_t points_in = 0;
   std::size_t points_kept = 0;
   std::size_t dropped_non_finite = 0;  ///< NaN or infinite coordinates
@@ -76,6 +96,9 @@ class ScanHVoxelizer {
   /// them). On, it keeps each point's plan position while binning and sums them per HVoxel after
   /// clustering.
   void keep_centroids(bool on) { keep_centroids_ = on; }
+  /// Whether build() also fills ScanHVoxels::wall_lean (needs keep_centroids: it reads the same
+  /// per-point plan positions).
+  void keep_wall_lean(bool on) { keep_wall_lean_ = on; }
 
   /// Scan cell index + 1 of each window cell of the last build (0: no point there).
   [[nodiscard]] const std::vector<std::uint32_t>& cell_of_window() const { return cell_of_window_; }
@@ -85,6 +108,7 @@ class ScanHVoxelizer {
                     ScanHVoxels& out);                 // Alg. 1
   void cluster_heights(ScanHVoxels& out);              // Alg. 2
   void sum_centroids(ScanHVoxels& out);                // ScanHVoxels::centroids
+  void sum_wall_lean(ScanHVoxels& out);                // ScanHVoxels::wall_lean
 
   MapParams params_;
   ScanWindow window_;
@@ -96,6 +120,8 @@ class ScanHVoxelizer {
   std::vector<Eigen::Vector2f> point_xy_;      // per kept point, with keep_centroids_: map x, y − the origin's
   std::vector<Eigen::Vector3d> centroid_sums_;  // per HVoxel: Σx, Σy (from the origin), n
   bool keep_centroids_ = false;
+  bool keep_wall_lean_ = false;
+  std::vector<std::array<double, 9>> moments_;  // per HVoxel with keep_wall_lean_: Σx Σy Σz Σxx Σxy Σyy Σxz Σyz Σzz
   std::vector<std::uint32_t> cell_offset_;     // counting sort of heights by cell
   std::vector<float> sorted_z_;
   std::vector<std::uint32_t> cluster_count_;   // prefix sums of the clusters per cell

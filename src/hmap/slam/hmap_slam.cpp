@@ -1,5 +1,7 @@
 #include "hmap/slam/hmap_slam.hpp"
 
+#include <Eigen/Eigenvalues>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -57,7 +59,8 @@ HmapSlam::HmapSlam(const Params& params)
       wall_refiner_(params),
       wall_map_(params.map.cell_size, params.slam.wall_band_height),
       wall_scan_(params.map.cell_size, params.slam.wall_band_height) {
-  level_hvoxelizer_.keep_centroids(params_.slam.hvoxel_centroids >= 1);
+  level_hvoxelizer_.keep_centroids(params_.slam.hvoxel_centroids >= 1 || params_.slam.wall_tilt_drift > 0.0);
+  level_hvoxelizer_.keep_wall_lean(params_.slam.wall_tilt_drift > 0.0);
 }
 
 namespace {
@@ -85,7 +88,8 @@ HmapSlam::HmapSlam(const Params& params, HMap map, const ContinueOptions& where,
       wall_scan_(params_.map.cell_size, params_.slam.wall_band_height),
       continuing_(where),
       map_as_given_(false) {
-  level_hvoxelizer_.keep_centroids(params_.slam.hvoxel_centroids >= 1);
+  level_hvoxelizer_.keep_centroids(params_.slam.hvoxel_centroids >= 1 || params_.slam.wall_tilt_drift > 0.0);
+  level_hvoxelizer_.keep_wall_lean(params_.slam.wall_tilt_drift > 0.0);
   const PlanarPose& g = where.guess;
   if (!(std::isfinite(g.x) && std::isfinite(g.y) && std::isfinite(g.yaw))) {
     throw Error("continuing a map: the first scan's guess must be finite");
@@ -421,6 +425,35 @@ SlamStep HmapSlam::process(const ScanInput& input) {
       if (step.walls.applied) estimate = step.walls.pose;
     }
     wall_map_.add(wall_points_, estimate);
+  }
+  if (params_.slam.wall_tilt_drift > 0.0 && !given && !imu_tilt && level_at) {
+    // The walls' lean, measured in the frame scan_level_ was built in, as the verticals' direction
+    // in the sensor frame, then in the present attitude's level frame: its tilt error, δ.
+    const WallLean& wl = scan_level_.wall_lean;
+    const double drift = params_.slam.wall_tilt_drift;
+    tilt_variance_ += Eigen::Matrix2d::Identity() * drift * drift;
+    if (wl.walls > 0) {
+      const Eigen::Vector2d lean = wl.lean();
+      const Eigen::Vector3d up_sensor = level_rotation(*level_at).transpose() * Eigen::Vector3d(lean.x(), lean.y(), 1.0).normalized();
+      const Eigen::Vector3d up = level_rotation(attitude) * up_sensor;
+      const Eigen::Vector2d delta(up.x() / up.z(), up.y() / up.z());
+      // The walls' information, each direction's variance floored at a plumb wall's (0.2 %).
+      constexpr double kPlumb = 0.002;
+      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(wl.information);
+      Eigen::Matrix2d info = Eigen::Matrix2d::Zero();
+      for (int k = 0; k < 2; ++k) {
+        const double l = std::max(0.0, eig.eigenvalues()(k));
+        info += l / (1.0 + l * kPlumb * kPlumb) * eig.eigenvectors().col(k) * eig.eigenvectors().col(k).transpose();
+      }
+      const Eigen::Matrix2d posterior = (tilt_variance_.inverse() + info).inverse();
+      const Eigen::Vector2d correction = posterior * info * delta;
+      tilt_variance_ = posterior;
+      step.wall_tilt = std::hypot(correction.x(), correction.y());
+      step.wall_tilt_walls = wl.walls;
+      const Eigen::Vector3d corrected_up = level_rotation(attitude).transpose() *
+                                           Eigen::Vector3d(correction.x(), correction.y(), 1.0).normalized();
+      attitude = tilt_aligning(corrected_up, Eigen::Vector3d::UnitZ(), attitude);
+    }
   }
   step.T_map_merged = compose(estimate, attitude);
   step.merged_at_s = middle;

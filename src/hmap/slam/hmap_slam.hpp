@@ -73,6 +73,8 @@ struct SlamStep {
   /// differed; 0 or 1: there was one) and whether the floor's won.
   int tilt_hypotheses = 0;
   bool tilt_from_floor = true;
+  double wall_tilt = 0.0;            ///< [rad] the tilt the walls' lean corrected (slam.wall_tilt_drift)
+  std::size_t wall_tilt_walls = 0;   ///< the walls it was measured on
   /// The first scan of a continued map: where it was found in the saved map (align_maps of the
   /// levelled scan onto the map, before the planar match refined it). Empty otherwise.
   std::optional<MapAlignResult> relocalised;
@@ -163,6 +165,9 @@ class HmapSlam {
   AttitudeRefiner refiner_;
   Attitude last_attitude_;
   Eigen::Vector3d floor_up_ = Eigen::Vector3d::UnitZ();  // the floor's upward normal in the map, last seen
+  // The tilt's error variance (dx/dz, dy/dz of the verticals in the level frame) for the walls'
+  // correction: wide before the first scan (a first floor may slope), grown per scan, shrunk by walls.
+  Eigen::Matrix2d tilt_variance_ = Eigen::Matrix2d::Identity() * 0.05 * 0.05;
   ScanHVoxelizer level_hvoxelizer_;
   ScanHVoxels scan_level_;
   CellCentroids map_centroids_;  // slam.hvoxel_centroids 2: where in its cell the map's surface lies
