@@ -217,6 +217,8 @@ TEST(ScanHVoxelsTest, WallLeanReadsTheFramesTilt) {
   EXPECT_LT(eig.eigenvalues()(0), 1e-3 * eig.eigenvalues()(1));
   EXPECT_NEAR(std::abs(eig.eigenvectors().col(1).y()), 1.0, 1e-3);
   EXPECT_NEAR(r.wall_lean.weighted.y() / r.wall_lean.information(1, 1), up.y() / up.z(), 5e-4);
+  EXPECT_NEAR(r.wall_lean.lean().y(), up.y() / up.z(), 5e-4);  // the held axis
+  EXPECT_LT(std::abs(r.wall_lean.lean().x()), 2e-3);            // and the other left near zero, finite
   // Nothing tall (a floor), and a builder not asked: no walls.
   PointCloud floor;
   for (double x = -5.0; x < 5.0; x += 0.05) {

@@ -276,8 +276,19 @@ void ScanHVoxelizer::cluster_heights(ScanHVoxels& out) {
 }
 
 Eigen::Vector2d WallLean::lean() const {
-  if (walls == 0) return Eigen::Vector2d::Zero();
-  return information.ldlt().solve(weighted);
+  // Least squares along the directions the walls hold; zero along one they do not (walls facing
+  // one way tell nothing of a lean along them).
+  Eigen::Vector2d out = Eigen::Vector2d::Zero();
+  if (walls == 0) return out;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(information);
+  const double largest = eig.eigenvalues()(1);
+  for (int k = 0; k < 2; ++k) {
+    const double l = eig.eigenvalues()(k);
+    if (!(l > 1e-9 * largest)) continue;
+    const Eigen::Vector2d v = eig.eigenvectors().col(k);
+    out += v * (v.dot(weighted) / l);
+  }
+  return out;
 }
 
 double WallLean::weakest() const {

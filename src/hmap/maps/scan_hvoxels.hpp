@@ -55,7 +55,8 @@ struct WallLean {
   Eigen::Matrix2d information = Eigen::Matrix2d::Zero();  ///< Σ (S/σ²) n nᵀ [1/(m/m)²]
   Eigen::Vector2d weighted = Eigen::Vector2d::Zero();     ///< Σ (S/σ²) n (n · L)
   std::size_t walls = 0;
-  /// δ by least squares over the walls.
+  /// δ by least squares over the walls; along a direction they do not hold (all facing one way),
+  /// zero.
   [[nodiscard]] Eigen::Vector2d lean() const;
   /// The smaller eigenvalue of `information`: 1/σ² of δ along its worst-held direction.
   [[nodiscard]] double weakest() const;
