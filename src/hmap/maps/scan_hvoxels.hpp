@@ -46,17 +46,28 @@ struct ScanCell {
 /// How the walls of one scan lean in the frame it was binned in: where that frame's z is not
 /// gravity's, a wall's points at height z lie z·δ aside (δ = dx/dz, dy/dz), and each wall tells
 /// the component of δ along its normal. Summed over walls (HVoxels at least kMinHeight tall whose
-/// points spread in plan along one direction at least twice as far as across it), each weighed by
+/// points spread in plan along one direction at least twice as far as across it, along it at any
+/// one height by kMinSpread of the cell, and that lean by no more than kMaxLean), each weighed by
 /// its information S/σ² (S: the points' Σ(z − z̄)², σ²: their scatter across the wall about the
-/// fitted lean).
+/// fitted lean, no less than kFlatness²). A wall that a cell's edge cuts reads low: each side
+/// keeps its own points (half the lean at the edge).
 struct WallLean {
   static constexpr double kMinHeight = 1.0;   ///< [m] a wall's HVoxel, at least
   static constexpr std::size_t kMinPoints = 10;
+  /// [m] a wall's scatter about its fitted lean, at least: a sensor's range noise and a wall's
+  /// own unevenness (the fitted scatter of a wall cut by a cell's edge is smaller, and biased).
+  static constexpr double kFlatness = 0.02;
+  /// A wall's points at one height (the lean taken out) spread along it by a standard deviation
+  /// of at least this share of the cell (a wall across 70 % of it), so that one column of beams
+  /// at one azimuth is not taken for a wall.
+  static constexpr double kMinSpread = 0.2;
+  /// A surface leaning by more than this (dx/dz, 11 deg) is not a wall: a slope, a windscreen.
+  static constexpr double kMaxLean = 0.2;
   Eigen::Matrix2d information = Eigen::Matrix2d::Zero();  ///< Σ (S/σ²) n nᵀ [1/(m/m)²]
   Eigen::Vector2d weighted = Eigen::Vector2d::Zero();     ///< Σ (S/σ²) n (n · L)
   std::size_t walls = 0;
-  /// δ by least squares over the walls; along a direction they do not hold (all facing one way),
-  /// zero.
+  /// δ by least squares over the walls; along a direction they hold under 1e-3 of the best-held
+  /// one (all facing one way), zero.
   [[nodiscard]] Eigen::Vector2d lean() const;
   /// The smaller eigenvalue of `information`: 1/σ² of δ along its worst-held direction.
   [[nodiscard]] double weakest() const;
