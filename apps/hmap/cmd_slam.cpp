@@ -260,7 +260,7 @@ void run_slam(const SlamOptions& o) {
   std::string log = "scan,matched,converged,iterations,initial_cost,final_cost,score,hvoxels,degenerate,coarse_search,"
                     "coarse_rejected,skipped,eig0,eig1,eig2,guess_x,guess_y,guess_yaw,x,y,yaw,z,roll,pitch,attitude_fit,surfaces,surface_rms,"
                     "observable_x,observable_y,observable_z,observable_roll,observable_pitch,observable_yaw,planar_passes,deskewed,"
-                    "imu,tilt_hypotheses,tilt_from_floor,heading_only,wall_refined,wall_pairs,wall_rms,wall_dx,wall_dy,wall_dyaw,ms\n";
+                    "imu,tilt_hypotheses,tilt_from_floor,heading_only,wall_refined,wall_pairs,wall_rms,wall_dx,wall_dy,wall_dyaw,wall_tilt,wall_tilt_walls,ms\n";
 #ifdef HMAP_HAVE_VIEW
   LiveView live(o.view);  // the map and the estimated path in the browser, as they grow
   std::vector<Eigen::Vector3d> path;
@@ -326,7 +326,7 @@ void run_slam(const SlamOptions& o) {
       const auto& af = step.attitude;
       log += format(
                     "%zu,%d,%d,%d,%.6g,%.6g,%.6g,%zu,%d,%d,%d,%d,%.6g,%.6g,%.6g,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,"
-                    "%d,%zu,%.4f,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%zu,%.4f,%.5f,%.5f,%.6f,%.3f\n",
+                    "%d,%zu,%.4f,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%zu,%.4f,%.5f,%.5f,%.6f,%.6f,%zu,%.3f\n",
                     k, step.matched ? 1 : 0, m.converged ? 1 : 0, m.iterations, m.initial_cost, m.final_cost, m.score,
                     m.hvoxels_used, m.degenerate ? 1 : 0, m.coarse_search ? 1 : 0, m.coarse_rejected ? 1 : 0, m.skipped ? 1 : 0, m.eigenvalues(0),
                     m.eigenvalues(1), m.eigenvalues(2), step.guess.x, step.guess.y, step.guess.yaw, xi.x, xi.y, xi.yaw,
@@ -335,7 +335,7 @@ void run_slam(const SlamOptions& o) {
                     step.observable[4] ? 1 : 0, step.observable[5] ? 1 : 0, step.planar_passes, step.deskewed ? 1 : 0,
                     step.imu_used ? 1 : 0, step.tilt_hypotheses, step.tilt_from_floor ? 1 : 0, m.heading_only ? 1 : 0,
                     step.walls.applied ? 1 : 0, step.walls.pairs, step.walls.rms, step.walls.change.x, step.walls.change.y,
-                    step.walls.change.yaw, ms);
+                    step.walls.change.yaw, step.wall_tilt, step.wall_tilt_walls, ms);
     }
     estimate.push_back(step.T_map_sensor);
     if (loops) {

@@ -474,6 +474,8 @@ py::dict slam_step_dict(const slam::SlamStep& step) {
   walls["change"] = py::make_tuple(step.walls.change.x, step.walls.change.y, step.walls.change.yaw);
   walls["skipped_because"] = std::string(step.walls.skipped_because);
   d["walls"] = walls;
+  // slam.wall_tilt_drift: the tilt the walls' lean corrected [rad], and the walls it was read on
+  d["wall_tilt"] = py::make_tuple(step.wall_tilt, step.wall_tilt_walls);
   py::dict observable;
   const char* axes[] = {"x", "y", "z", "roll", "pitch", "yaw"};
   for (std::size_t a = 0; a < 6; ++a) observable[axes[a]] = step.observable[a];
@@ -1158,7 +1160,7 @@ PYBIND11_MODULE(_hmap, m) {
            "a dict: T_map_sensor (4x4, at the stamp), T_map_merged (4x4, the pose the scan was merged at, "
            "merged_at_s [s] after the stamp: the sweep's middle when deskewed by the estimates' velocity), matched, converged, iterations, initial_cost, final_cost, score (mean M_H), "
            "hvoxels_used, eigenvalues, degenerate, coarse_search, coarse_rejected, skipped, heading_only, attitude_fit, walls (slam.wall_refine: "
-           "{'applied', 'pairs', 'rms', 'iterations', 'change': (dx, dy, dyaw), 'skipped_because'}), observable ({'x': bool, "
+           "{'applied', 'pairs', 'rms', 'iterations', 'change': (dx, dy, dyaw), 'skipped_because'}), wall_tilt ((the tilt the walls' lean corrected [rad], the walls read): slam.wall_tilt_drift), observable ({'x': bool, "
            "... 'yaw': bool}), planar_passes, deskewed, sweep_velocity, imu_used, tilt_hypotheses, tilt_from_floor, "
            "mapping (the map update's figures), relocalised (the first scan of a continued map: {'shift': (x, y, z, yaw), "
            "'score', 'columns_used', 'floor_pairs'}; else None).")

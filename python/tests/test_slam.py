@@ -41,6 +41,7 @@ def test_slam_poses_equal_the_cli_poses(tmp_path):
         assert s["hvoxels_used"] > 100 and 0.0 < s["score"] <= 1.0
         assert s["observable"]["x"] and s["observable"]["yaw"]
         assert s["mapping"]["points_in"] > 100000
+        assert s["wall_tilt"] == (0.0, 0)  # slam.wall_tilt_drift is off by default
     # The map is SLAM's, live, and saves the bytes `hmap slam` writes.
     slam.map.save(tmp_path / "py.hmap")
     assert (tmp_path / "py.hmap").read_bytes() == (out / "map.hmap").read_bytes()

@@ -489,6 +489,49 @@ TEST_F(CliTest, SlamWallRefinementSummaryAndColumns) {
   EXPECT_NE(bad.out.find("slam.wall_band_height"), std::string::npos) << bad.out;
 }
 
+// slam --set slam.wall_tilt_drift: matches.csv says per scan how far the walls' lean turned the
+// tilt and over how many walls; off (the default) both columns are 0 on every row.
+TEST_F(CliTest, SlamWallTiltColumns) {
+  const CmdResult sim = run("simulate --scene office --sensor os0-64 --frames 6 --stride 3 --out " + path("seq"));
+  ASSERT_EQ(sim.code, 0) << sim.out;
+  const auto column_values = [&](const std::string& out, const std::string& name) {
+    std::ifstream csv(dir_ / out / "matches.csv");
+    std::string header;
+    std::getline(csv, header);
+    const auto cells = [](const std::string& line) {
+      std::vector<std::string> c;
+      std::stringstream ss(line);
+      for (std::string x; std::getline(ss, x, ',');) c.push_back(x);
+      return c;
+    };
+    const std::vector<std::string> names = cells(header);
+    const auto at = std::find(names.begin(), names.end(), name);
+    EXPECT_NE(at, names.end()) << header;
+    std::vector<double> values;
+    if (at == names.end()) return values;
+    for (std::string line; std::getline(csv, line);) {
+      const std::vector<std::string> row = cells(line);
+      EXPECT_EQ(row.size(), names.size()) << line;
+      values.push_back(std::stod(row[static_cast<std::size_t>(at - names.begin())]));
+    }
+    return values;
+  };
+  const CmdResult on = run("slam --kitti " + path("seq") + " --set slam.wall_tilt_drift=0.0005 --no-loop-closure --out " + path("on"));
+  ASSERT_EQ(on.code, 0) << on.out;
+  const std::vector<double> tilt = column_values("on", "wall_tilt");
+  const std::vector<double> walls = column_values("on", "wall_tilt_walls");
+  ASSERT_EQ(tilt.size(), 6U);
+  ASSERT_EQ(walls.size(), 6U);
+  for (std::size_t k = 0; k < 6; ++k) {
+    EXPECT_GT(walls[k], 10.0) << k;  // the office's walls, on every scan (the first levels the map)
+    EXPECT_TRUE(tilt[k] >= 0.0 && tilt[k] < 0.05) << k << ": " << tilt[k];
+  }
+  const CmdResult off = run("slam --kitti " + path("seq") + " --no-loop-closure --out " + path("off"));
+  ASSERT_EQ(off.code, 0) << off.out;
+  for (const double v : column_values("off", "wall_tilt")) EXPECT_EQ(v, 0.0);
+  for (const double v : column_values("off", "wall_tilt_walls")) EXPECT_EQ(v, 0.0);
+}
+
 TEST_F(CliTest, SlamAndPvoxReadRgbdFrames) {
   HMAP_REQUIRE_DATA("rgbd_7scenes");
   const std::string rgbd = (test::data_dir() / "rgbd_7scenes").string();
