@@ -10,11 +10,13 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <numbers>
 #include <sstream>
 #include <string>
+#include <vector>
 #include <sys/wait.h>
 
 #include "apps/cli_run.hpp"
@@ -447,6 +449,35 @@ TEST_F(CliTest, SlamLoopClosureFlagsAndSummary) {
   EXPECT_NE(bad.out.find("slam.loop_min_score"), std::string::npos) << bad.out;
 }
 
+namespace {
+
+/// One column of a CSV file with a header line, as text, row by row. A test failure when the
+/// column is missing or a row has another number of cells than the header.
+std::vector<std::string> csv_column(const std::filesystem::path& file, const std::string& name) {
+  const auto cells = [](const std::string& line) {
+    std::vector<std::string> out;
+    std::stringstream ss(line);
+    for (std::string c; std::getline(ss, c, ',');) out.push_back(c);
+    return out;
+  };
+  std::ifstream csv(file);
+  std::string header;
+  std::getline(csv, header);
+  const std::vector<std::string> names = cells(header);
+  const auto at = std::find(names.begin(), names.end(), name);
+  EXPECT_NE(at, names.end()) << file << ": " << header;
+  std::vector<std::string> values;
+  if (at == names.end()) return values;
+  for (std::string line; std::getline(csv, line);) {
+    const std::vector<std::string> row = cells(line);
+    EXPECT_EQ(row.size(), names.size()) << file << ": " << line;
+    if (row.size() == names.size()) values.push_back(row[static_cast<std::size_t>(at - names.begin())]);
+  }
+  return values;
+}
+
+}  // namespace
+
 // slam --set slam.wall_refine=1: the summary says how many matches the walls refined, matches.csv
 // has a wall_* row per scan (the first scan: none); a bad value is one line naming the parameter.
 TEST_F(CliTest, SlamWallRefinementSummaryAndColumns) {
@@ -455,31 +486,10 @@ TEST_F(CliTest, SlamWallRefinementSummaryAndColumns) {
   const CmdResult on = run("slam --kitti " + path("seq") + " --set slam.wall_refine=1 --no-loop-closure --out " + path("w"));
   ASSERT_EQ(on.code, 0) << on.out;
   EXPECT_NE(on.out.find("Walls (slam.wall_refine): "), std::string::npos) << on.out;
-  std::ifstream csv(dir_ / "w" / "matches.csv");
-  std::string header;
-  std::getline(csv, header);
-  const auto cells = [](const std::string& line) {
-    std::vector<std::string> out;
-    std::stringstream ss(line);
-    for (std::string c; std::getline(ss, c, ',');) out.push_back(c);
-    return out;
-  };
-  const std::vector<std::string> names = cells(header);
-  const auto at = std::find(names.begin(), names.end(), "wall_refined");
-  ASSERT_NE(at, names.end()) << header;
-  const auto column = static_cast<std::size_t>(at - names.begin());
-  std::size_t refined = 0;
-  std::size_t rows = 0;
-  for (std::string line; std::getline(csv, line); ++rows) {
-    const std::vector<std::string> row = cells(line);
-    ASSERT_EQ(row.size(), names.size()) << line;
-    if (rows == 0) {
-      EXPECT_EQ(row[column], "0");  // the first scan defines the map
-    }
-    refined += row[column] == "1" ? 1 : 0;
-  }
-  EXPECT_EQ(rows, 6U);
-  EXPECT_GE(refined, 1U);  // the office's walls refine the matches
+  const std::vector<std::string> refined = csv_column(dir_ / "w" / "matches.csv", "wall_refined");
+  ASSERT_EQ(refined.size(), 6U);
+  EXPECT_EQ(refined[0], "0");  // the first scan defines the map
+  EXPECT_GE(std::count(refined.begin(), refined.end(), "1"), 1);  // the office's walls refine the matches
   const CmdResult off = run("slam --kitti " + path("seq") + " --no-loop-closure --out " + path("off"));
   ASSERT_EQ(off.code, 0) << off.out;
   EXPECT_EQ(off.out.find("Walls (slam.wall_refine)"), std::string::npos) << off.out;
@@ -494,42 +504,21 @@ TEST_F(CliTest, SlamWallRefinementSummaryAndColumns) {
 TEST_F(CliTest, SlamWallTiltColumns) {
   const CmdResult sim = run("simulate --scene office --sensor os0-64 --frames 6 --stride 3 --out " + path("seq"));
   ASSERT_EQ(sim.code, 0) << sim.out;
-  const auto column_values = [&](const std::string& out, const std::string& name) {
-    std::ifstream csv(dir_ / out / "matches.csv");
-    std::string header;
-    std::getline(csv, header);
-    const auto cells = [](const std::string& line) {
-      std::vector<std::string> c;
-      std::stringstream ss(line);
-      for (std::string x; std::getline(ss, x, ',');) c.push_back(x);
-      return c;
-    };
-    const std::vector<std::string> names = cells(header);
-    const auto at = std::find(names.begin(), names.end(), name);
-    EXPECT_NE(at, names.end()) << header;
-    std::vector<double> values;
-    if (at == names.end()) return values;
-    for (std::string line; std::getline(csv, line);) {
-      const std::vector<std::string> row = cells(line);
-      EXPECT_EQ(row.size(), names.size()) << line;
-      values.push_back(std::stod(row[static_cast<std::size_t>(at - names.begin())]));
-    }
-    return values;
-  };
   const CmdResult on = run("slam --kitti " + path("seq") + " --set slam.wall_tilt_drift=0.0005 --no-loop-closure --out " + path("on"));
   ASSERT_EQ(on.code, 0) << on.out;
-  const std::vector<double> tilt = column_values("on", "wall_tilt");
-  const std::vector<double> walls = column_values("on", "wall_tilt_walls");
+  const std::vector<std::string> tilt = csv_column(dir_ / "on" / "matches.csv", "wall_tilt");
+  const std::vector<std::string> walls = csv_column(dir_ / "on" / "matches.csv", "wall_tilt_walls");
   ASSERT_EQ(tilt.size(), 6U);
   ASSERT_EQ(walls.size(), 6U);
   for (std::size_t k = 0; k < 6; ++k) {
-    EXPECT_GT(walls[k], 10.0) << k;  // the office's walls, on every scan (the first levels the map)
-    EXPECT_TRUE(tilt[k] >= 0.0 && tilt[k] < 0.05) << k << ": " << tilt[k];
+    EXPECT_GT(std::stod(walls[k]), 10.0) << k;  // the office's walls, on every scan (the first levels the map)
+    const double t = std::stod(tilt[k]);
+    EXPECT_TRUE(t >= 0.0 && t < 0.05) << k << ": " << tilt[k];
   }
   const CmdResult off = run("slam --kitti " + path("seq") + " --no-loop-closure --out " + path("off"));
   ASSERT_EQ(off.code, 0) << off.out;
-  for (const double v : column_values("off", "wall_tilt")) EXPECT_EQ(v, 0.0);
-  for (const double v : column_values("off", "wall_tilt_walls")) EXPECT_EQ(v, 0.0);
+  for (const std::string& v : csv_column(dir_ / "off" / "matches.csv", "wall_tilt")) EXPECT_EQ(std::stod(v), 0.0);
+  for (const std::string& v : csv_column(dir_ / "off" / "matches.csv", "wall_tilt_walls")) EXPECT_EQ(v, "0");
 }
 
 TEST_F(CliTest, SlamAndPvoxReadRgbdFrames) {

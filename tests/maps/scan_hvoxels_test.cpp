@@ -187,15 +187,22 @@ PointCloud tilted_walls(const Eigen::Matrix3d& tilt, bool three_walls) {
   return out;
 }
 
-// A level frame tilted by 0.57° about x and −0.34° about y: verticals lean by tiltᵀ·ẑ in it, and
-// the walls read it within 0.03°; one wall holds only its normal's axis.
-TEST(ScanHVoxelsTest, WallLeanReadsTheFramesTilt) {
+/// A builder of 0.25 m cells, with the height gap and range given, that measures the walls' lean.
+ScanHVoxelizer wall_lean_builder(double gap, double max_range) {
   MapParams p = unit_params();
   p.cell_size = 0.25;
-  p.point_distance_threshold = 0.4;
+  p.point_distance_threshold = gap;
+  p.max_range = max_range;
   ScanHVoxelizer b(p);
   b.keep_centroids(true);
   b.keep_wall_lean(true);
+  return b;
+}
+
+// A level frame tilted by 0.57° about x and −0.34° about y: verticals lean by tiltᵀ·ẑ in it, and
+// the walls read it within 0.03°; one wall holds only its normal's axis.
+TEST(ScanHVoxelsTest, WallLeanReadsTheFramesTilt) {
+  ScanHVoxelizer b = wall_lean_builder(0.4, 10.0);
   const Eigen::Matrix3d tilt =
       (Eigen::AngleAxisd(0.01, Eigen::Vector3d::UnitX()) * Eigen::AngleAxisd(-0.006, Eigen::Vector3d::UnitY())).toRotationMatrix();
   // Binned at the identity, the walls stand along tiltᵀ·ẑ.
@@ -227,8 +234,8 @@ TEST(ScanHVoxelsTest, WallLeanReadsTheFramesTilt) {
   b.build(floor, Pose::Identity(), r);
   EXPECT_EQ(r.wall_lean.walls, 0U);
   EXPECT_EQ(r.wall_lean.lean(), Eigen::Vector2d::Zero());
-  ScanHVoxelizer plain(p);
-  plain.keep_centroids(true);
+  ScanHVoxelizer plain = wall_lean_builder(0.4, 10.0);
+  plain.keep_wall_lean(false);
   plain.build(tilted_walls(tilt, true), Pose::Identity(), r);
   EXPECT_EQ(r.wall_lean.walls, 0U);
 }
@@ -281,13 +288,7 @@ PointCloud column_lidar_street(const Eigen::Matrix3d& tilt) {
 // whose scatter a cell's edge had cut weighed most. Binned in the sensor's frame, 1.15° off
 // gravity about y and 0.57° about x, the street's walls must read the tilt within 20 %.
 TEST(ScanHVoxelsTest, WallLeanIsNotFooledByBeamColumns) {
-  MapParams p = unit_params();
-  p.cell_size = 0.25;
-  p.point_distance_threshold = 0.62;
-  p.max_range = 40.0;
-  ScanHVoxelizer b(p);
-  b.keep_centroids(true);
-  b.keep_wall_lean(true);
+  ScanHVoxelizer b = wall_lean_builder(0.62, 40.0);
   const Eigen::Matrix3d tilt =
       (Eigen::AngleAxisd(0.02, Eigen::Vector3d::UnitY()) * Eigen::AngleAxisd(0.01, Eigen::Vector3d::UnitX())).toRotationMatrix();
   const Eigen::Vector3d up = tilt.transpose() * Eigen::Vector3d::UnitZ();  // the vertical in the sensor's frame
