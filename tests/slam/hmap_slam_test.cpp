@@ -254,9 +254,10 @@ TEST(HmapSlam, TheWallsLevelTheFirstScanOnASlope) {
   const double floor_alone = up_error(0.0);
   const double walls = up_error(0.0005);
   EXPECT_GT(floor_alone, 0.8 * kDeg);  // the floor's slope, taken for level
-  // 0.10° left in the Release build, 0.19° in the sanitizers' (walls cut by a cell's edge read
-  // low): under a quarter of the floor's error either way.
-  EXPECT_LT(walls, 0.25 * floor_alone);
+  // 0.13° left in the Release build (0.10° before session 32's reading; 0.19° in the sanitizers'
+  // then): under a quarter of the floor's error either way. The town's walls lie on the grid's
+  // edges, and a wall a cell's edge cuts reads low.
+  EXPECT_LT(walls, 0.25 * floor_alone) << walls / kDeg << " deg, floor " << floor_alone / kDeg;
 }
 
 TEST(HmapSlam, RejectsInvalidParameters) {
