@@ -297,31 +297,10 @@ double WallLean::weakest() const {
 }
 
 void ScanHVoxelizer::sum_wall_lean(ScanHVoxels& out) {
-  // Per HVoxel the points' moments (plan from the origin, z as binned), then per wall its lean
-  // L = cov(xy, z) / S along its normal n (the plan scatter's least direction), weighed by S/σ².
+  // From the moments sum_centroids summed per HVoxel (plan from the origin, z as binned): per wall
+  // its lean L = cov(xy, z) / S along its normal n (the plan scatter's least direction), weighed
+  // by S/σ².
   const std::size_t n = out.hvoxels.size();
-  moments_.assign(n, std::array<double, 9>{});
-  for (std::size_t k = 0; k < point_cell_.size(); ++k) {
-    const ScanCell& cell = out.cells[point_cell_[k]];
-    const float z = point_z_[k];
-    if (out.hvoxels[cell.first + cell.count - 1].z_max - out.hvoxels[cell.first].z_min < WallLean::kMinHeight) continue;
-    std::uint32_t h = cell.first;
-    const std::uint32_t last = cell.first + cell.count - 1;
-    while (h < last && z > out.hvoxels[h].z_max) ++h;
-    const double x = point_xy_[k].x();
-    const double y = point_xy_[k].y();
-    const double zd = z;
-    std::array<double, 9>& m = moments_[h];
-    m[0] += x;
-    m[1] += y;
-    m[2] += zd;
-    m[3] += x * x;
-    m[4] += x * y;
-    m[5] += y * y;
-    m[6] += x * zd;
-    m[7] += y * zd;
-    m[8] += zd * zd;
-  }
   WallLean& w = out.wall_lean;
   w = WallLean{};
   const double min_spread2 = std::pow(WallLean::kMinSpread * params_.cell_size, 2);  // per point [m²]
@@ -369,9 +348,12 @@ void ScanHVoxelizer::sum_centroids(ScanHVoxels& out) {
   // Each kept point is in exactly one HVoxel of its cell: the cluster whose bounds hold its height
   // (the bounds are the extreme heights themselves, the same floats). The sums are relative to the
   // origin, in double, so that a cell far out keeps its sub-millimetre centroid.
+  // With keep_wall_lean_, the same pass sums each HVoxel's moments for the walls' lean, in the
+  // cells whose HVoxels span a wall's height.
   const std::size_t n = out.hvoxels.size();
   std::vector<Eigen::Vector3d>& sums = centroid_sums_;
   sums.assign(n, Eigen::Vector3d::Zero());
+  if (keep_wall_lean_) moments_.assign(n, std::array<double, 9>{});
   for (std::size_t k = 0; k < point_cell_.size(); ++k) {
     const ScanCell& cell = out.cells[point_cell_[k]];
     const float z = point_z_[k];
@@ -379,6 +361,21 @@ void ScanHVoxelizer::sum_centroids(ScanHVoxels& out) {
     const std::uint32_t last = cell.first + cell.count - 1;
     while (h < last && z > out.hvoxels[h].z_max) ++h;
     sums[h] += Eigen::Vector3d(point_xy_[k].x(), point_xy_[k].y(), 1.0);
+    if (keep_wall_lean_ && !(out.hvoxels[last].z_max - out.hvoxels[cell.first].z_min < WallLean::kMinHeight)) {
+      const double x = point_xy_[k].x();
+      const double y = point_xy_[k].y();
+      const double zd = z;
+      std::array<double, 9>& m = moments_[h];
+      m[0] += x;
+      m[1] += y;
+      m[2] += zd;
+      m[3] += x * x;
+      m[4] += x * y;
+      m[5] += y * y;
+      m[6] += x * zd;
+      m[7] += y * zd;
+      m[8] += zd * zd;
+    }
   }
   if (keep_wall_lean_) sum_wall_lean(out);
   out.centroids.resize(n);
