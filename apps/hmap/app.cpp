@@ -45,7 +45,7 @@ void configure_app(CLI::App& app) {
 #endif
   auto* params_cmd = app.add_subcommand("params", "Print every parameter of a preset with its unit and its valid range");
   auto preset = std::make_shared<std::string>("outdoor");
-  params_cmd->add_option("--preset", *preset, "indoor or outdoor")->capture_default_str();
+  params_cmd->add_option("--preset", *preset, "indoor, room or outdoor")->capture_default_str();
   params_cmd->callback([preset] { std::fputs(params_to_yaml(hmap::preset(*preset)).c_str(), stdout); });
 }
 

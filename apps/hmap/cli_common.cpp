@@ -18,9 +18,10 @@ namespace hmap::cli {
 
 void ParamOptions::add_to(CLI::App& app) {
   app.add_option("--preset", preset,
-                 "Parameter preset of the paper's section V (default: map and slam choose indoor when 95 % of the "
-                 "first scan lies within the indoor preset's 5 m reach, else outdoor)")
-      ->check(CLI::IsMember({"indoor", "outdoor"}));
+                 "Parameter preset: indoor (0.05 m cells, 5 m) and outdoor (0.25 m, 25 m) of the paper's section V, "
+                 "room (0.1 m, 10 m) between them (default: map and slam choose the first whose range holds 95 % "
+                 "of the first scan)")
+      ->check(CLI::IsMember({"indoor", "room", "outdoor"}));
   app.add_option("--config", config, "YAML parameter file applied on top of the preset");
   app.add_option("--set", overrides, "Override one parameter, NAME=VALUE (repeatable; see hmap params)");
   app.add_option("--cell", cell, "Grid cell size [m] (map.cell_size)");

@@ -991,7 +991,7 @@ PYBIND11_MODULE(_hmap, m) {
     }
   });
 
-  py::class_<Params>(m, "Params", "Every parameter of hmap, from a preset ('indoor' or 'outdoor').")
+  py::class_<Params>(m, "Params", "Every parameter of hmap, from a preset ('indoor', 'room' or 'outdoor').")
       .def(py::init([](const std::string& preset_name) { return preset(preset_name); }), py::arg("preset") = "outdoor")
       .def("get", [](const Params& p, const std::string& name) { return get_param(p, name); }, py::arg("name"),
            "The value of a parameter by its dotted name ('map.cell_size').")
@@ -1008,7 +1008,7 @@ PYBIND11_MODULE(_hmap, m) {
            py::arg("values"), "Sets several parameters at once ({'map.min_range': 2, 'map.max_range': 40}), validated together.")
       .def_static("names", &param_names, "The dotted names of every parameter.")
       .def_static("describe", &describe, py::arg("name"), "Unit, description, default and range of a parameter.")
-      .def_static("presets", [] { return std::vector<std::string>{"indoor", "outdoor"}; })
+      .def_static("presets", [] { return std::vector<std::string>{"indoor", "room", "outdoor"}; })
       .def("to_yaml", [](const Params& p) { return params_to_yaml(p); }, "The parameters as the YAML the CLI's --config reads.")
       .def("copy", [](const Params& p) { return p; })
       .def("__eq__", [](const Params& a, const Params& b) { return params_to_yaml(a) == params_to_yaml(b); });

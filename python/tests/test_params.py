@@ -15,11 +15,15 @@ def test_presets_hold_the_papers_values():
     assert indoor.get("ground.expansion_distance") == 0.4
     assert outdoor.get("ground.expansion_distance") == 0.9
     assert hmap.Params() == outdoor
-    assert set(hmap.Params.presets()) == {"indoor", "outdoor"}
+    # Between them for a LiDAR in a building: the outdoor preset at 0.1 m and 10 m, the cell 1 % of the range.
+    room = hmap.Params("room")
+    assert (room.get("map.cell_size"), room.get("map.max_range"), room.get("map.min_range")) == (0.1, 10.0, 1.2)
+    assert room.get("ground.expansion_distance") == 0.9
+    assert set(hmap.Params.presets()) == {"indoor", "room", "outdoor"}
 
 
 def test_unknown_preset_raises_the_library_message():
-    with pytest.raises(ValueError, match=r"unknown preset 'garden' \(expected indoor or outdoor\)"):
+    with pytest.raises(ValueError, match=r"unknown preset 'garden' \(expected indoor, room or outdoor\)"):
         hmap.Params("garden")
 
 

@@ -93,7 +93,7 @@ std::string validate_with(const std::string& name, double value) {
 }
 
 TEST(ParamsTest, EveryParameterHasAFiniteRangeTheDefaultsLieIn) {
-  for (const Params& preset : {indoor_preset(), outdoor_preset()}) {
+  for (const Params& preset : {indoor_preset(), room_preset(), outdoor_preset()}) {
     Params p = preset;
     for (const auto& r : param_refs(p)) {
       EXPECT_TRUE(std::isfinite(r.range.min) && std::isfinite(r.range.max)) << r.name;

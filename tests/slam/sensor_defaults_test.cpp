@@ -83,11 +83,11 @@ TEST(SensorDefaults, NoRingsNoChange) {
 }
 
 TEST(SensorDefaults, PresetFromTheSensorsReach) {
-  // Spinning LiDARs on the parking street see past the indoor preset's 5 m: outdoor. A Kinect in
+  // Spinning LiDARs on the parking street see past the room preset's 10 m: outdoor. A Kinect in
   // the simulated office sees nothing beyond about 4.5 m: indoor. An empty scan: outdoor.
   std::string why;
   EXPECT_EQ(preset_for_sensor(profile_scan(scan_of(sim::SpinningLidarParams::vlp16())), &why), "outdoor");
-  EXPECT_NE(why.find("beyond the indoor preset's 5 m"), std::string::npos) << why;
+  EXPECT_NE(why.find("beyond the indoor preset's 5 m range and the room preset's 10 m"), std::string::npos) << why;
   EXPECT_EQ(preset_for_sensor(profile_scan(scan_of(sim::SpinningLidarParams::hdl64e()))), "outdoor");
   const sim::Scene office = sim::make_office_scene();
   sim::DepthCamera kinect(sim::DepthCameraParams::kinect_one());
@@ -97,6 +97,24 @@ TEST(SensorDefaults, PresetFromTheSensorsReach) {
   EXPECT_LT(k.range_p95, 5.0);
   EXPECT_EQ(preset_for_sensor(k, &why), "indoor");
   EXPECT_NE(why.find("inside the indoor preset's 5 m"), std::string::npos) << why;
+  // Spinning LiDARs at the start of the simulated office's route (hmap simulate --scene office): its
+  // walls stand 7-10 m away, beyond the indoor preset's 5 m and within the room preset's 10 m.
+  for (const auto& lidar : {sim::SpinningLidarParams::vlp16(), sim::SpinningLidarParams::hdl64e(),
+                            sim::SpinningLidarParams::os0_64()}) {
+    sim::SpinningLidar sensor(lidar);
+    Pose start = Pose::Identity();
+    const Eigen::Vector2d at = sim::office_robot_route().front();  // (1, 1) in the 10 x 8 m room
+    start.translation() = Eigen::Vector3d(at.x(), at.y(), 1.2);
+    const SensorProfile l = profile_scan(sensor.scan(office, start, 0.0).points_sensor);
+    EXPECT_GT(l.range_p95, 5.0);
+    EXPECT_LT(l.range_p95, 10.0);
+    EXPECT_EQ(preset_for_sensor(l, &why), "room");
+    EXPECT_NE(why.find("beyond the indoor preset's 5 m range, inside the room preset's 10 m"), std::string::npos) << why;
+    // The VLP-16's rings 2° apart are 0.35 m apart at the room's 10 m: under the preset's 0.4 m, which stays.
+    Params p = room_preset();
+    (void)adapt_to_sensor(p, room_preset(), l);
+    EXPECT_DOUBLE_EQ(p.map.point_distance_threshold, 0.4);
+  }
   EXPECT_EQ(preset_for_sensor(profile_scan(PointCloud{}), &why), "outdoor");
   EXPECT_EQ(why, "the first scan has 0 points, too few to tell the sensor");
   // Hand-made: 95 % of 1000 points at 4 m and the rest at 20 m is indoor; 90 % at 4 m is outdoor.
@@ -105,6 +123,15 @@ TEST(SensorDefaults, PresetFromTheSensorsReach) {
   EXPECT_EQ(preset_for_sensor(profile_scan(near_far)), "indoor");
   for (int i = 860; i < 960; ++i) near_far[static_cast<std::size_t>(i)] = Point3f(20.0F, 0.0F, 0.0F);
   EXPECT_EQ(preset_for_sensor(profile_scan(near_far)), "outdoor");
+  // The same at 8 m: 96 % within 10 m is a room, 86 % is not; exactly at the room's 10 m still is.
+  for (int i = 0; i < 1000; ++i) near_far[static_cast<std::size_t>(i)] = Point3f(i < 960 ? 8.0F : 20.0F, 0.0F, 0.0F);
+  EXPECT_EQ(preset_for_sensor(profile_scan(near_far), &why), "room");
+  EXPECT_NE(why.find("within 8.0 m"), std::string::npos) << why;
+  for (int i = 0; i < 960; ++i) near_far[static_cast<std::size_t>(i)] = Point3f(0.0F, 10.0F, 0.0F);
+  EXPECT_EQ(preset_for_sensor(profile_scan(near_far)), "room");
+  for (int i = 860; i < 960; ++i) near_far[static_cast<std::size_t>(i)] = Point3f(20.0F, 0.0F, 0.0F);
+  EXPECT_EQ(preset_for_sensor(profile_scan(near_far), &why), "outdoor");
+  EXPECT_NE(why.find("beyond the indoor preset's 5 m range and the room preset's 10 m"), std::string::npos) << why;
   // 999 points at 1 m (a pose file read as a scan is one): too few to tell, outdoor.
   EXPECT_EQ(preset_for_sensor(profile_scan(PointCloud(999, Point3f(1.0F, 0.0F, 0.0F)))), "outdoor");
 }

@@ -27,10 +27,18 @@ Params indoor_preset() {
   return p;
 }
 
+Params room_preset() {
+  Params p = outdoor_preset();
+  p.map.cell_size = 0.1;
+  p.map.max_range = 10.0;
+  return p;
+}
+
 Params preset(std::string_view name) {
   if (name == "indoor") return indoor_preset();
+  if (name == "room") return room_preset();
   if (name == "outdoor") return outdoor_preset();
-  throw Error("unknown preset '" + std::string(name) + "' (expected indoor or outdoor)");
+  throw Error("unknown preset '" + std::string(name) + "' (expected indoor, room or outdoor)");
 }
 
 namespace {

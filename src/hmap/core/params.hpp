@@ -174,7 +174,12 @@ struct Params {
 [[nodiscard]] Params indoor_preset();
 /// Paper section V, outdoor (VLP-16, campus): 25 cm cells, 1.2-25 m range. Equal to `Params{}`.
 [[nodiscard]] Params outdoor_preset();
-/// The preset called `name` ("indoor" or "outdoor"); throws hmap::Error for any other name.
+/// Between the two, for a LiDAR inside a building: the outdoor preset at 10 cm cells and a 10 m
+/// range, so that the cell is 1 % of the range as in both of the paper's (0.05 / 5 m, 0.25 / 25 m).
+/// In rooms the structure a scan is matched on stands within a few metres, where a 0.25 m cell is
+/// 0.06-0.08 rad of yaw (docs/SLAM.md, "A LiDAR in a room").
+[[nodiscard]] Params room_preset();
+/// The preset called `name` ("indoor", "room" or "outdoor"); throws hmap::Error for any other name.
 [[nodiscard]] Params preset(std::string_view name);
 
 /// The values a parameter may take: an interval, each end closed or open. Every parameter has

@@ -73,15 +73,27 @@ std::string preset_for_sensor(const SensorProfile& sensor, std::string* reason) 
   // Fewer points than any real scan has (a depth image, a LiDAR sweep: 10^4 and more) tell
   // nothing about the sensor: a pose file given as a scan is one point at 1 m.
   constexpr std::size_t kMinPoints = 1000;
-  const double indoor_reach = indoor_preset().map.max_range;
-  const bool indoor = sensor.points >= kMinPoints && sensor.range_p95 <= indoor_reach;
-  if (reason != nullptr) {
-    *reason = sensor.points < kMinPoints
-                  ? format("the first scan has %zu points, too few to tell the sensor", sensor.points)
-                  : format("95 %% of the first scan's points within %.1f m, %s the indoor preset's %.0f m range",
-                           sensor.range_p95, indoor ? "inside" : "beyond", indoor_reach);
+  if (sensor.points < kMinPoints) {
+    if (reason != nullptr) *reason = format("the first scan has %zu points, too few to tell the sensor", sensor.points);
+    return "outdoor";
   }
-  return indoor ? "indoor" : "outdoor";
+  // The presets from the finest up, each with a cell of 1 % of its range: the first whose range
+  // holds 95 % of the points, so that a coarser one would see nothing more and lose the detail.
+  const double indoor_reach = indoor_preset().map.max_range;
+  const double room_reach = room_preset().map.max_range;
+  const auto why = [&](const char* where) {
+    if (reason != nullptr) *reason = format("95 %% of the first scan's points within %.1f m, %s", sensor.range_p95, where);
+  };
+  if (sensor.range_p95 <= indoor_reach) {
+    why(format("inside the indoor preset's %.0f m range", indoor_reach).c_str());
+    return "indoor";
+  }
+  if (sensor.range_p95 <= room_reach) {
+    why(format("beyond the indoor preset's %.0f m range, inside the room preset's %.0f m", indoor_reach, room_reach).c_str());
+    return "room";
+  }
+  why(format("beyond the indoor preset's %.0f m range and the room preset's %.0f m", indoor_reach, room_reach).c_str());
+  return "outdoor";
 }
 
 std::vector<ChosenDefault> adapt_to_sensor(Params& p, const Params& preset_params, const SensorProfile& sensor) {

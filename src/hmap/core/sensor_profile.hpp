@@ -27,10 +27,10 @@ struct SensorProfile {
 
 /// The preset that fits the sensor, when the user named none: "indoor" when 95 % of the scan's
 /// points lie within the indoor preset's range limit (map.max_range, 5 m: a depth camera, a laser in
-/// a small room), so that the outdoor preset's 25 m reach and 0.25 m cells would see nothing more
-/// and lose the detail; else "outdoor". A scan of fewer than 1000 points (no real sensor's) gets
-/// "outdoor". `reason` (optional)
-/// says why, for the summary.
+/// a small room), "room" when within the room preset's (10 m: a LiDAR inside a building), so that a
+/// coarser preset's reach and cells would see nothing more and lose the detail; else "outdoor". A
+/// scan of fewer than 1000 points (no real sensor's) gets "outdoor". `reason` (optional) says why,
+/// for the summary.
 [[nodiscard]] std::string preset_for_sensor(const SensorProfile& sensor, std::string* reason = nullptr);
 
 /// One default chosen from the data, for the summary.
