@@ -11,6 +11,7 @@ traj --json`) on:
 - a 0.3 km drive through the town with the three LiDARs (no odometry);
 - 60 frames (3 m) through the office with the three LiDARs, and the office with a Kinect
   (166 frames, 27.8 m) with and without odometry;
+- the three LiDARs from a small room into a hall (bench/scenes/room_to_hall.json, 166 frames);
 - the real balm_os0 (reference poses) when the data folder has it, and kitti_hdl64_seq16 against
   the Open3D ICP trajectory bench/slam_peers.py writes.
 
@@ -60,6 +61,12 @@ def cases(seeds, data, kitti_reference, mount_yaw):
     for sensor in ("vlp16", "hdl64", "os0-64"):
         out.append((f"office-{sensor}{tag}", f"office {sensor}{label}",
                     ["--scene", "office", "--sensor", sensor, "--frames", "60", *turn], None, [], None))
+    # A LiDAR whose first scan sees a 3.6 x 2.3 m room alone, then the 40 x 35 m hall its door opens
+    # into (the office robot's route; docs/SLAM.md, "Session 33").
+    hall = os.path.join(os.path.dirname(os.path.abspath(__file__)), "scenes", "room_to_hall.json")
+    for sensor in ("vlp16", "hdl64", "os0-64"):
+        out.append((f"hall-{sensor}{tag}", f"room to hall {sensor}{label}",
+                    ["--scene-file", hall, "--sensor", sensor, "--stride", "4", *turn], None, [], None))
     kinect = ["--scene", "office", "--sensor", "kinect", "--stride", "4"]
     out.append(("office-kinect-odometry", "office kinect, odometry", kinect, None, ["--odometry", "@/odometry.txt"], None))
     out.append(("office-kinect", "office kinect", kinect, None, [], None))

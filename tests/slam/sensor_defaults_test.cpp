@@ -2,9 +2,11 @@
 // HDL-64 and OS0-64 scans and a depth camera; here because the scans come from hmap::sim.
 
 #include "hmap/core/sensor_profile.hpp"
+#include "hmap/core/format.hpp"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -110,10 +112,35 @@ TEST(SensorDefaults, PresetFromTheSensorsReach) {
     EXPECT_LT(l.range_p95, 10.0);
     EXPECT_EQ(preset_for_sensor(l, &why), "room");
     EXPECT_NE(why.find("beyond the indoor preset's 5 m range, inside the room preset's 10 m"), std::string::npos) << why;
-    // The VLP-16's rings 2° apart are 0.35 m apart at the room's 10 m: under the preset's 0.4 m, which stays.
+    // A LiDAR reaches beyond the room: the outdoor preset's 25 m; the height gap stays its rings' at the
+    // room's 10 m (a VLP-16's 0.35 m, under the preset's 0.4 m).
     Params p = room_preset();
-    (void)adapt_to_sensor(p, room_preset(), l);
+    const auto chosen = adapt_to_sensor(p, room_preset(), l);
+    ASSERT_FALSE(chosen.empty());
+    EXPECT_EQ(chosen[0].name, "map.max_range");
+    EXPECT_DOUBLE_EQ(p.map.max_range, 25.0);
+    EXPECT_NE(chosen[0].reason.find("reaches beyond the room"), std::string::npos) << chosen[0].reason;
     EXPECT_DOUBLE_EQ(p.map.point_distance_threshold, 0.4);
+    EXPECT_EQ(chosen.size(), 1U);
+    // Named by the user, the range stands, even at the preset's value.
+    Params named = room_preset();
+    (void)adapt_to_sensor(named, room_preset(), l, true);
+    EXPECT_DOUBLE_EQ(named.map.max_range, 10.0);
+  }
+  // A LiDAR in a small room (95 % within 5 m) is not a depth camera: the room preset, and its reach.
+  PointCloud closet = scan_of(sim::SpinningLidarParams::vlp16());
+  SensorProfile small = profile_scan(closet);
+  small.range_p95 = 2.8;
+  EXPECT_EQ(preset_for_sensor(small, &why), "room");
+  EXPECT_NE(why.find(format("but a LiDAR (%d rings): the room preset", small.rings)), std::string::npos) << why;
+  {
+    // With the outdoor preset's cell, 0.01 m, the reach is held to the scan window's 2048 cells.
+    Params fine = room_preset();
+    fine.map.cell_size = 0.01;
+    Params fine_preset = fine;
+    (void)adapt_to_sensor(fine, fine_preset, small);
+    EXPECT_DOUBLE_EQ(fine.map.max_range, 20.48);
+    EXPECT_NO_THROW(validate(fine));
   }
   EXPECT_EQ(preset_for_sensor(profile_scan(PointCloud{}), &why), "outdoor");
   EXPECT_EQ(why, "the first scan has 0 points, too few to tell the sensor");

@@ -85,6 +85,14 @@ std::string preset_for_sensor(const SensorProfile& sensor, std::string* reason) 
     if (reason != nullptr) *reason = format("95 %% of the first scan's points within %.1f m, %s", sensor.range_p95, where);
   };
   if (sensor.range_p95 <= indoor_reach) {
+    // The indoor preset's 0.05 m cells are the paper's for a depth camera: a LiDAR's rings leave
+    // them sparse and its noise (2-3 cm) fills them. A LiDAR that starts in a small room takes the
+    // room preset (and adapt_to_sensor gives it its reach beyond the room).
+    if (sensor.rings > 0) {
+      why(format("inside the indoor preset's %.0f m range, but a LiDAR (%d rings): the room preset", indoor_reach,
+                 sensor.rings).c_str());
+      return "room";
+    }
     why(format("inside the indoor preset's %.0f m range", indoor_reach).c_str());
     return "indoor";
   }
@@ -96,17 +104,35 @@ std::string preset_for_sensor(const SensorProfile& sensor, std::string* reason) 
   return "outdoor";
 }
 
-std::vector<ChosenDefault> adapt_to_sensor(Params& p, const Params& preset_params, const SensorProfile& sensor) {
+std::vector<ChosenDefault> adapt_to_sensor(Params& p, const Params& preset_params, const SensorProfile& sensor,
+                                           bool max_range_named) {
   std::vector<ChosenDefault> chosen;
+  // The first scan tells how large the place is where the recording starts, not how far the
+  // sensor reaches: a LiDAR that starts in a room sees the hall or the street beyond it later.
+  // With the room preset's 10 m it lost the simulated hall beyond a small room (docs/SLAM.md,
+  // "Session 33"). A LiDAR keeps the outdoor preset's range, within the scan window's 2048 cells.
+  // The walls of that place stand within the range chosen for it: the rings' height gap is taken
+  // there (at the LiDAR's 25 m a VLP-16's 0.87 m gap merged a room's tables with its floor: the
+  // simulated office mounted turned 20 deg went from 0.82-0.86 % to 1.27-1.31 % RPE).
+  const double place = p.map.max_range;
+  double reach = std::min(outdoor_preset().map.max_range, 2048.0 * p.map.cell_size);
+  while (std::ceil(reach / p.map.cell_size) > 2048.0) reach = std::nextafter(reach, 0.0);  // validate()'s rule, exactly
+  if (sensor.rings > 0 && !max_range_named && p.map.max_range == preset_params.map.max_range && p.map.max_range < reach) {
+    p.map.max_range = reach;
+    chosen.push_back({"map.max_range", reach,
+                      format("a LiDAR (%d rings) reaches beyond the room its first scan was taken in", sensor.rings)});
+  }
   if (sensor.rings > 0 && p.map.point_distance_threshold == preset_params.map.point_distance_threshold) {
-    const double gap = sensor.ring_spacing * p.map.max_range;
+    const double gap = sensor.ring_spacing * place;
     const double value = std::clamp(gap, preset_params.map.point_distance_threshold, 1.0);
-    const std::string reason = format("%d rings %.2f deg apart: %.2f m between rings at the %.0f m range limit",
-                  sensor.rings, sensor.ring_spacing * 180.0 / std::numbers::pi, gap, p.map.max_range);
+    const std::string reason = format("%d rings %.2f deg apart: %.2f m between rings at the %.0f m range %s",
+                  sensor.rings, sensor.ring_spacing * 180.0 / std::numbers::pi, gap, place,
+                  place == p.map.max_range ? "limit" : "of the room preset");
     const double rounded = std::round(value * 100.0) / 100.0;
-    if (rounded == p.map.point_distance_threshold) return chosen;
-    p.map.point_distance_threshold = rounded;
-    chosen.push_back({"map.point_distance_threshold", p.map.point_distance_threshold, reason});
+    if (rounded != p.map.point_distance_threshold) {
+      p.map.point_distance_threshold = rounded;
+      chosen.push_back({"map.point_distance_threshold", p.map.point_distance_threshold, reason});
+    }
   }
   return chosen;
 }

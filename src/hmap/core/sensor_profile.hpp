@@ -41,13 +41,17 @@ struct ChosenDefault {
 };
 
 /// Adapts `p` to the sensor, for parameters still at their value in `preset_params` (a value the
-/// user set, even to the preset's, is the user's when it differs; equal values are taken as unset):
-/// Returns what it changed.
-/// - map.point_distance_threshold = ring spacing × map.max_range (clamped to [preset, 1 m]): two
-///   neighbouring rings on a wall at the far end of the range are that far apart, and a larger
+/// user set, even to the preset's, is the user's when it differs; equal values are taken as unset,
+/// but for map.max_range when `max_range_named`). Returns what it changed.
+/// - map.max_range = the outdoor preset's 25 m (at most 2048 cells) for a LiDAR (rings found) whose
+///   preset reaches less: the first scan tells the size of the place the recording starts in, not
+///   the sensor's reach, and a LiDAR that starts in a room sees the hall or street beyond it later.
+/// - map.point_distance_threshold = ring spacing × map.max_range as it was before the line above
+///   (clamped to [preset, 1 m]): two neighbouring rings on a wall at the far end of the range the
+///   preset was chosen for are that far apart, and a larger
 ///   gap than the preset's 0.4 m keeps such a wall one HVoxel instead of one per ring (a VLP-16's
 ///   2° rings on a wall past 11.5 m).
 [[nodiscard]] std::vector<ChosenDefault> adapt_to_sensor(Params& p, const Params& preset_params,
-                                                         const SensorProfile& sensor);
+                                                         const SensorProfile& sensor, bool max_range_named = false);
 
 }  // namespace hmap
