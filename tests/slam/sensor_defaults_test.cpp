@@ -99,6 +99,18 @@ TEST(SensorDefaults, PresetFromTheSensorsReach) {
   EXPECT_LT(k.range_p95, 5.0);
   EXPECT_EQ(preset_for_sensor(k, &why), "indoor");
   EXPECT_NE(why.find("inside the indoor preset's 5 m"), std::string::npos) << why;
+  // Its 70.6 deg view is no spinning LiDAR's, even where its rows beyond 5 m read as rings (the
+  // office route's first frame showed 4): it stays indoor, its range the preset's.
+  EXPECT_GT(k.azimuth_coverage, 0.15);
+  EXPECT_LT(k.azimuth_coverage, 0.25);
+  SensorProfile rows = k;
+  rows.rings = 4;
+  rows.ring_spacing = 0.5 * kDeg;
+  EXPECT_FALSE(is_spinning_lidar(rows));
+  EXPECT_EQ(preset_for_sensor(rows), "indoor");
+  Params kinect_params = indoor_preset();
+  (void)adapt_to_sensor(kinect_params, indoor_preset(), rows);
+  EXPECT_DOUBLE_EQ(kinect_params.map.max_range, 5.0);
   // Spinning LiDARs at the start of the simulated office's route (hmap simulate --scene office): its
   // walls stand 7-10 m away, beyond the indoor preset's 5 m and within the room preset's 10 m.
   for (const auto& lidar : {sim::SpinningLidarParams::vlp16(), sim::SpinningLidarParams::hdl64e(),
@@ -108,6 +120,8 @@ TEST(SensorDefaults, PresetFromTheSensorsReach) {
     const Eigen::Vector2d at = sim::office_robot_route().front();  // (1, 1) in the 10 x 8 m room
     start.translation() = Eigen::Vector3d(at.x(), at.y(), 1.2);
     const SensorProfile l = profile_scan(sensor.scan(office, start, 0.0).points_sensor);
+    EXPECT_GT(l.azimuth_coverage, 0.99);  // walls all around
+    EXPECT_TRUE(is_spinning_lidar(l));
     EXPECT_GT(l.range_p95, 5.0);
     EXPECT_LT(l.range_p95, 10.0);
     EXPECT_EQ(preset_for_sensor(l, &why), "room");

@@ -1,6 +1,7 @@
 #include "hmap/core/sensor_profile.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <numbers>
@@ -17,6 +18,7 @@ SensorProfile profile_scan(std::span<const Point3f> points_sensor) {
   constexpr int kBins = static_cast<int>(std::numbers::pi / kBin) + 2;
   std::vector<std::uint32_t> hist(static_cast<std::size_t>(kBins), 0);
   std::vector<float> ranges;
+  std::array<bool, 360> azimuths{};
   std::size_t far = 0;
   for (std::size_t k = 0; k < points_sensor.size(); k += stride) {
     const Point3f& q = points_sensor[k];
@@ -25,6 +27,10 @@ SensorProfile profile_scan(std::span<const Point3f> points_sensor) {
     const double r = std::hypot(h, static_cast<double>(q.z()));
     ++out.points;
     ranges.push_back(static_cast<float>(r));
+    if (h > 0.0) {
+      const double az = std::atan2(static_cast<double>(q.y()), static_cast<double>(q.x())) * 180.0 / std::numbers::pi;  // (-180, 180]
+      azimuths[static_cast<std::size_t>(std::clamp(static_cast<int>(std::floor(az + 180.0)), 0, 359))] = true;
+    }
     if (r < 5.0) continue;
     const double elevation = std::atan2(static_cast<double>(q.z()), h);  // in [−π/2, π/2]
     const auto bin = static_cast<std::size_t>(std::clamp(
@@ -32,6 +38,7 @@ SensorProfile profile_scan(std::span<const Point3f> points_sensor) {
     ++hist[bin];
     ++far;
   }
+  out.azimuth_coverage = static_cast<double>(std::count(azimuths.begin(), azimuths.end(), true)) / 360.0;
   if (!ranges.empty()) {
     const auto p95 = ranges.begin() + static_cast<std::ptrdiff_t>(0.95 * static_cast<double>(ranges.size() - 1));
     std::nth_element(ranges.begin(), p95, ranges.end());
@@ -88,7 +95,7 @@ std::string preset_for_sensor(const SensorProfile& sensor, std::string* reason) 
     // The indoor preset's 0.05 m cells are the paper's for a depth camera: a LiDAR's rings leave
     // them sparse and its noise (2-3 cm) fills them. A LiDAR that starts in a small room takes the
     // room preset (and adapt_to_sensor gives it its reach beyond the room).
-    if (sensor.rings > 0) {
+    if (is_spinning_lidar(sensor)) {
       why(format("inside the indoor preset's %.0f m range, but a LiDAR (%d rings): the room preset", indoor_reach,
                  sensor.rings).c_str());
       return "room";
@@ -117,7 +124,8 @@ std::vector<ChosenDefault> adapt_to_sensor(Params& p, const Params& preset_param
   const double place = p.map.max_range;
   double reach = std::min(outdoor_preset().map.max_range, 2048.0 * p.map.cell_size);
   while (std::ceil(reach / p.map.cell_size) > 2048.0) reach = std::nextafter(reach, 0.0);  // validate()'s rule, exactly
-  if (sensor.rings > 0 && !max_range_named && p.map.max_range == preset_params.map.max_range && p.map.max_range < reach) {
+  if (is_spinning_lidar(sensor) && !max_range_named && p.map.max_range == preset_params.map.max_range &&
+      p.map.max_range < reach) {
     p.map.max_range = reach;
     chosen.push_back({"map.max_range", reach,
                       format("a LiDAR (%d rings) reaches beyond the room its first scan was taken in", sensor.rings)});

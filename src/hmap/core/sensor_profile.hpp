@@ -17,12 +17,18 @@ struct SensorProfile {
   int rings = 0;                    ///< distinct elevation rings found (0: not ring-structured, e.g. RGB-D)
   double ring_spacing = 0.0;        ///< [rad] median elevation step between neighbouring rings; 0 if no rings
   double range_p95 = 0.0;           ///< [m] 95th percentile of the points' range
+  double azimuth_coverage = 0.0;    ///< [-] share of the 360 one-degree azimuth bins that hold a point
 };
+
+/// A spinning LiDAR: rings, and points all around (more than half of the azimuths). The rings alone
+/// are not enough: the simulated Kinect's 70° view showed 4 "rings" (its rows beyond 5 m).
+[[nodiscard]] inline bool is_spinning_lidar(const SensorProfile& s) { return s.rings > 0 && s.azimuth_coverage > 0.5; }
 
 /// Elevations atan2(z, √(x²+y²)) of the points farther than 5 m (nearer, the beams' offset from
 /// the sensor origin blurs the rings), in 0.05° bins; runs of bins holding at least 0.1 % of the
 /// points are rings. Ring-structured when at least 4 rings fill under half of the elevation span
 /// they cover (a depth camera's or sweeping laser's elevations fill it) and are at least 0.2° apart.
+/// The azimuth coverage counts every finite point off the vertical axis.
 [[nodiscard]] SensorProfile profile_scan(std::span<const Point3f> points_sensor);
 
 /// The preset that fits the sensor, when the user named none: "indoor" when 95 % of the scan's
@@ -43,7 +49,7 @@ struct ChosenDefault {
 /// Adapts `p` to the sensor, for parameters still at their value in `preset_params` (a value the
 /// user set, even to the preset's, is the user's when it differs; equal values are taken as unset,
 /// but for map.max_range when `max_range_named`). Returns what it changed.
-/// - map.max_range = the outdoor preset's 25 m (at most 2048 cells) for a LiDAR (rings found) whose
+/// - map.max_range = the outdoor preset's 25 m (at most 2048 cells) for a LiDAR (is_spinning_lidar) whose
 ///   preset reaches less: the first scan tells the size of the place the recording starts in, not
 ///   the sensor's reach, and a LiDAR that starts in a room sees the hall or street beyond it later.
 /// - map.point_distance_threshold = ring spacing × map.max_range as it was before the line above
