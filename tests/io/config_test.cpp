@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <numbers>
 #include <utility>
 
 #include "hmap/core/params.hpp"
@@ -105,6 +106,53 @@ TEST(ResolveParamsForScanTest, NoPresetNamedTheScanChoosesIt) {
   EXPECT_EQ(chosen.params.map.max_range, indoor_preset().map.max_range);
   EXPECT_EQ(chosen.params.map.cell_size, 0.07);  // the named value over the preset's
   EXPECT_EQ(chosen.params.slam.imu_roll, 0.25);  // `values`, set last
+}
+
+/// A spinning LiDAR in a room, by hand: 16 rings 2° apart (−15° to +15°), a point every degree
+/// all around, 8 m away.
+PointCloud lidar_in_a_room() {
+  PointCloud points;
+  for (int ring = 0; ring < 16; ++ring) {
+    const double el = (-15.0 + 2.0 * ring) * std::numbers::pi / 180.0;
+    for (int a = 0; a < 360; ++a) {
+      const double az = (a + 0.5) * std::numbers::pi / 180.0;
+      points.emplace_back(static_cast<float>(8.0 * std::cos(el) * std::cos(az)),
+                          static_cast<float>(8.0 * std::cos(el) * std::sin(az)), static_cast<float>(8.0 * std::sin(el)));
+    }
+  }
+  return points;
+}
+
+TEST(ResolveParamsForScanTest, ALidarInARoomTakesTheRoomCellAndKeepsItsReach) {
+  ParamSources sources;
+  sources.preset = "";
+  const ScanParams chosen = resolve_params_for_scan(sources, lidar_in_a_room());
+  EXPECT_EQ(chosen.preset, "room");
+  EXPECT_EQ(chosen.params.map.cell_size, 0.1);
+  EXPECT_EQ(chosen.params.map.max_range, 25.0);  // the LiDAR's, not the room preset's 10 m
+  ASSERT_FALSE(chosen.adapted.empty());
+  EXPECT_EQ(chosen.adapted[0].name, "map.max_range");
+  // 2° rings are 0.35 m apart at the room's 10 m: the preset's 0.4 m gap stays.
+  EXPECT_EQ(chosen.params.map.point_distance_threshold, 0.4);
+  // A range the user names stands, by flag or by --set, even at the preset's value; so does a named
+  // preset's.
+  ParamSources flag = sources;
+  flag.max_range = 10.0;
+  EXPECT_EQ(resolve_params_for_scan(flag, lidar_in_a_room()).params.map.max_range, 10.0);
+  ParamSources set = sources;
+  set.overrides = {"map.max_range=10"};
+  EXPECT_EQ(resolve_params_for_scan(set, lidar_in_a_room()).params.map.max_range, 10.0);
+  ParamSources named = sources;
+  named.preset = "room";
+  EXPECT_EQ(resolve_params_for_scan(named, lidar_in_a_room()).params.map.max_range, 10.0);
+  // The same points seen through a 70° window (a depth camera's view) are no LiDAR: the room's 10 m.
+  PointCloud window;
+  for (const Point3f& q : lidar_in_a_room()) {
+    if (std::abs(std::atan2(q.y(), q.x())) < 0.6) window.push_back(q);
+  }
+  const ScanParams narrow = resolve_params_for_scan(sources, window);
+  EXPECT_EQ(narrow.preset, "room");
+  EXPECT_EQ(narrow.params.map.max_range, 10.0);
 }
 
 TEST(ResolveParamsForScanTest, ANamedPresetStandsAndSaysNoReason) {

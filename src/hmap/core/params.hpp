@@ -177,7 +177,8 @@ struct Params {
 /// Between the two, for a LiDAR inside a building: the outdoor preset at 10 cm cells and a 10 m
 /// range, so that the cell is 1 % of the range as in both of the paper's (0.05 / 5 m, 0.25 / 25 m).
 /// In rooms the structure a scan is matched on stands within a few metres, where a 0.25 m cell is
-/// 0.06-0.08 rad of yaw (docs/SLAM.md, "A LiDAR in a room").
+/// 0.06-0.08 rad of yaw (docs/SLAM.md, "Session 33"). Chosen from a first scan, a LiDAR keeps the
+/// outdoor 25 m range with it (adapt_to_sensor); the 10 m is for other sensors and a preset named.
 [[nodiscard]] Params room_preset();
 /// The preset called `name` ("indoor", "room" or "outdoor"); throws hmap::Error for any other name.
 [[nodiscard]] Params preset(std::string_view name);

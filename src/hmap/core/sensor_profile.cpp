@@ -135,7 +135,7 @@ std::vector<ChosenDefault> adapt_to_sensor(Params& p, const Params& preset_param
     const double value = std::clamp(gap, preset_params.map.point_distance_threshold, 1.0);
     const std::string reason = format("%d rings %.2f deg apart: %.2f m between rings at the %.0f m range %s",
                   sensor.rings, sensor.ring_spacing * 180.0 / std::numbers::pi, gap, place,
-                  place == p.map.max_range ? "limit" : "of the room preset");
+                  place == p.map.max_range ? "limit" : "of the preset");
     const double rounded = std::round(value * 100.0) / 100.0;
     if (rounded != p.map.point_distance_threshold) {
       p.map.point_distance_threshold = rounded;

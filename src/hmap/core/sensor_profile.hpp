@@ -48,7 +48,8 @@ struct ChosenDefault {
 
 /// Adapts `p` to the sensor, for parameters still at their value in `preset_params` (a value the
 /// user set, even to the preset's, is the user's when it differs; equal values are taken as unset,
-/// but for map.max_range when `max_range_named`). Returns what it changed.
+/// but for map.max_range when `max_range_named`: resolve_params_for_scan says so for a range or a
+/// preset the user named). Returns what it changed.
 /// - map.max_range = the outdoor preset's 25 m (at most 2048 cells) for a LiDAR (is_spinning_lidar) whose
 ///   preset reaches less: the first scan tells the size of the place the recording starts in, not
 ///   the sensor's reach, and a LiDAR that starts in a room sees the hall or street beyond it later.

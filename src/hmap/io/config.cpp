@@ -158,9 +158,10 @@ ScanParams resolve_params_for_scan(const ParamSources& sources, std::span<const 
   if (chosen.preset.empty()) chosen.preset = preset_for_sensor(sensor, &out.preset_reason);
   out.preset = chosen.preset;
   out.params = resolve_params(chosen);
-  // A range the user named (--max-range, --set, a value) stands even where it equals the preset's.
+  // A range the user named (--max-range, --set, a value) stands even where it equals the preset's,
+  // and so does the range of a preset the user named.
   const auto names_range = [](std::string_view name) { return name == "map.max_range"; };
-  bool range_named = sources.max_range.has_value();
+  bool range_named = sources.max_range.has_value() || !sources.preset.empty();
   for (const std::string& o : sources.overrides) range_named = range_named || names_range(std::string_view(o).substr(0, o.find('=')));
   for (const auto& [name, value] : sources.values) range_named = range_named || names_range(name);
   out.adapted = adapt_to_sensor(out.params, preset(out.preset), sensor, range_named);
