@@ -88,8 +88,8 @@ std::string preset_for_sensor(const SensorProfile& sensor, std::string* reason) 
   // holds 95 % of the points, so that a coarser one would see nothing more and lose the detail.
   const double indoor_reach = indoor_preset().map.max_range;
   const double room_reach = room_preset().map.max_range;
-  const auto why = [&](const char* where) {
-    if (reason != nullptr) *reason = format("95 %% of the first scan's points within %.1f m, %s", sensor.range_p95, where);
+  const auto why = [&](const std::string& where) {
+    if (reason != nullptr) *reason = format("95 %% of the first scan's points within %.1f m, ", sensor.range_p95) + where;
   };
   if (sensor.range_p95 <= indoor_reach) {
     // The indoor preset's 0.05 m cells are the paper's for a depth camera: a LiDAR's rings leave
@@ -97,17 +97,17 @@ std::string preset_for_sensor(const SensorProfile& sensor, std::string* reason) 
     // room preset (and adapt_to_sensor gives it its reach beyond the room).
     if (is_spinning_lidar(sensor)) {
       why(format("inside the indoor preset's %.0f m range, but a LiDAR (%d rings): the room preset", indoor_reach,
-                 sensor.rings).c_str());
+                 sensor.rings));
       return "room";
     }
-    why(format("inside the indoor preset's %.0f m range", indoor_reach).c_str());
+    why(format("inside the indoor preset's %.0f m range", indoor_reach));
     return "indoor";
   }
   if (sensor.range_p95 <= room_reach) {
-    why(format("beyond the indoor preset's %.0f m range, inside the room preset's %.0f m", indoor_reach, room_reach).c_str());
+    why(format("beyond the indoor preset's %.0f m range, inside the room preset's %.0f m", indoor_reach, room_reach));
     return "room";
   }
-  why(format("beyond the indoor preset's %.0f m range and the room preset's %.0f m", indoor_reach, room_reach).c_str());
+  why(format("beyond the indoor preset's %.0f m range and the room preset's %.0f m", indoor_reach, room_reach));
   return "outdoor";
 }
 
