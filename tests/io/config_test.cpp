@@ -132,8 +132,12 @@ TEST(ResolveParamsForScanTest, ALidarInARoomTakesTheRoomCellAndKeepsItsReach) {
   EXPECT_EQ(chosen.params.map.max_range, 25.0);  // the LiDAR's, not the room preset's 10 m
   ASSERT_FALSE(chosen.adapted.empty());
   EXPECT_EQ(chosen.adapted[0].name, "map.max_range");
-  // 2° rings are 0.35 m apart at the room's 10 m: the preset's 0.4 m gap stays.
+  // 2° rings are 0.35 m apart at the room's 10 m: the preset's 0.4 m gap stays there, and grows
+  // beyond it by 1.1 · tan 2° per metre.
   EXPECT_EQ(chosen.params.map.point_distance_threshold, 0.4);
+  ASSERT_EQ(chosen.adapted.size(), 2U);
+  EXPECT_EQ(chosen.adapted[1].name, "map.ring_gap_slope");
+  EXPECT_NEAR(chosen.params.map.ring_gap_slope, 0.0384, 0.001);
   // A range the user names stands, by flag or by --set, even at the preset's value; so does a named
   // preset's.
   ParamSources flag = sources;

@@ -145,6 +145,42 @@ TEST(MapperTest, ScansMergeWithinThePointDistanceThreshold) {
   EXPECT_FLOAT_EQ(c[1].z_max, 0.7F);
 }
 
+// III-D with map.ring_gap_slope: the join gap is the one the scan's cell was clustered with,
+// max(0.15, 0.02 · d) at the cell's far corner's distance d from that scan's sensor. Cell (150, 0)
+// seen from the origin: d = hypot(15.05, 0.05) + 0.0707 = 15.121, gap 0.302: an HVoxel 0.25 m
+// above joins, one 0.35 m above stays apart. Seen from x = 10 (d = 5.121, gap 0.15) the 0.25 m
+// does not join.
+TEST(MapperTest, ScansMergeWithinTheRingGapOfTheirCell) {
+  Params p = test_params();
+  p.map.free_space = FreeSpaceMode::kNone;
+  p.map.ring_gap_slope = 0.02;
+  Pose from_10 = Pose::Identity();
+  from_10.translation().x() = 10.0;
+  const auto seen_from = [](PointCloud pts, double sensor_x) {
+    for (Point3f& q : pts) q.x() -= static_cast<float>(sensor_x);
+    return pts;
+  };
+  Mapper far(p);
+  far.integrate(stack(15.05, 0.05, 0.00, 0.10, 20), Pose::Identity());
+  far.integrate(stack(15.05, 0.05, 0.35, 0.45, 20), Pose::Identity());  // 0.25 m above: joined
+  far.integrate(stack(15.05, 0.05, 0.80, 0.90, 20), Pose::Identity());  // 0.35 m above: apart
+  const ColumnView c = far.map().column(15.05, 0.05);
+  ASSERT_EQ(c.size(), 2U);
+  EXPECT_FLOAT_EQ(c[0].z_min, 0.0F);
+  EXPECT_FLOAT_EQ(c[0].z_max, 0.45F);
+  EXPECT_FLOAT_EQ(c[1].z_min, 0.8F);
+  Mapper near(p);
+  near.integrate(stack(15.05, 0.05, 0.00, 0.10, 20), Pose::Identity());
+  near.integrate(seen_from(stack(15.05, 0.05, 0.35, 0.45, 20), 10.0), from_10);
+  ASSERT_EQ(near.map().column(15.05, 0.05).size(), 2U);
+  // Without the slope, the threshold alone: apart from the origin too.
+  p.map.ring_gap_slope = 0.0;
+  Mapper fixed(p);
+  fixed.integrate(stack(15.05, 0.05, 0.00, 0.10, 20), Pose::Identity());
+  fixed.integrate(stack(15.05, 0.05, 0.35, 0.45, 20), Pose::Identity());
+  EXPECT_EQ(fixed.map().column(15.05, 0.05).size(), 2U);
+}
+
 // III-E within one scan: a hit outranks a pass-through. Rays to a wall 8 m away pass through the
 // cell of a thin pole 4 m away at the pole's heights; the pole stays, however often it is seen so.
 TEST(MapperTest, AScansOwnRaysDoNotCarveItsOwnHits) {

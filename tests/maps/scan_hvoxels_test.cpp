@@ -318,6 +318,52 @@ TEST(ScanHVoxelsTest, ThresholdBoundary) {
   EXPECT_FLOAT_EQ(v[1].z_min, 0.501F);
 }
 
+// map.ring_gap_slope by hand: the gap of a cell is max(threshold, min(slope · d, 1 m)), d its
+// centre's distance from the sensor plus half its diagonal. Heights 0, 0.7, 1.4 (gaps 0.7):
+// - cell (20, 0): d = hypot(20.5, 0.5) + 0.7071 = 21.2132; slope 0.04 -> gap 0.8485: one HVoxel;
+// - cell (4, 0): d = hypot(4.5, 0.5) + 0.7071 = 5.2348 -> 0.2094, the threshold 0.5: three;
+// - the sensor moved to x = 16: cell (20, 0) is then as near, three; slope 0 anywhere: three;
+// - slope 0.1 at cell (20, 0): 2.12 m, held to 1 m: heights 0 and 1.05 one above the other split.
+TEST(ScanHVoxelsTest, RingGapGrowsWithTheCellsDistance) {
+  MapParams p = unit_params();
+  p.max_range = 30.0;
+  p.ring_gap_slope = 0.04;
+  const auto column = [](float x, std::initializer_list<float> heights) {
+    PointCloud pts;
+    for (const float z : heights) pts.emplace_back(x, 0.5F, z);
+    return pts;
+  };
+  const auto count = [](const MapParams& mp, const PointCloud& pts, double sensor_x) {
+    ScanHVoxelizer h(mp);
+    ScanHVoxels r;
+    Pose T = Pose::Identity();
+    T.translation().x() = sensor_x;
+    PointCloud in_sensor = pts;
+    for (Point3f& q : in_sensor) q.x() -= static_cast<float>(sensor_x);
+    h.build(in_sensor, T, r);
+    EXPECT_EQ(r.cells.size(), 1U);
+    return r.hvoxels.size();
+  };
+  EXPECT_EQ(count(p, column(20.5F, {0.0F, 0.7F, 1.4F}), 0.0), 1U);
+  EXPECT_EQ(count(p, column(4.5F, {0.0F, 0.7F, 1.4F}), 0.0), 3U);
+  EXPECT_EQ(count(p, column(20.5F, {0.0F, 0.7F, 1.4F}), 16.0), 3U);
+  // The gap just under and over 0.8485 m at cell (20, 0).
+  EXPECT_EQ(count(p, column(20.5F, {0.0F, 0.84F}), 0.0), 1U);
+  EXPECT_EQ(count(p, column(20.5F, {0.0F, 0.86F}), 0.0), 2U);
+  MapParams fixed = p;
+  fixed.ring_gap_slope = 0.0;
+  EXPECT_EQ(count(fixed, column(20.5F, {0.0F, 0.7F, 1.4F}), 0.0), 3U);
+  MapParams steep = p;
+  steep.ring_gap_slope = 0.1;
+  EXPECT_EQ(count(steep, column(20.5F, {0.0F, 0.99F}), 0.0), 1U);
+  EXPECT_EQ(count(steep, column(20.5F, {0.0F, 1.05F}), 0.0), 2U);
+  // A threshold above 1 m stays the gap.
+  steep.point_distance_threshold = 1.5;
+  EXPECT_EQ(count(steep, column(20.5F, {0.0F, 1.45F}), 0.0), 1U);
+  // The same HVoxels whatever the order of the heights (the one-cluster shortcut and the sort).
+  EXPECT_EQ(count(p, column(20.5F, {1.4F, 0.0F, 0.7F, 3.0F, 2.3F}), 0.0), 2U);
+}
+
 TEST(ScanHVoxelsTest, DropsNonFiniteAndOutOfRangeAndCounts) {
   MapParams p = unit_params();
   p.min_range = 1.0;

@@ -28,8 +28,10 @@ PointCloud scan_of(const sim::SpinningLidarParams& lidar) {
   return sensor.scan(scene, T, 0.0).points_sensor;
 }
 
-TEST(SensorDefaults, Vlp16RingsWidenTheHeightGap) {
-  // 16 rings 2° apart: at the outdoor preset's 25 m, neighbouring rings are 0.87 m apart on a wall.
+TEST(SensorDefaults, Vlp16RingsWidenTheHeightGapWithRange) {
+  // 16 rings 2° apart: neighbouring rings hit a wall d · tan 2° apart, 0.87 m at the outdoor
+  // preset's 25 m. The gap grows with the cell's distance by 1.1 · tan 2° = 0.0384 per metre; the
+  // paper's 0.4 m stays where that is less (within 10.4 m).
   const SensorProfile s = profile_scan(scan_of(sim::SpinningLidarParams::vlp16()));
   EXPECT_GE(s.rings, 12);
   EXPECT_LE(s.rings, 16);
@@ -37,12 +39,24 @@ TEST(SensorDefaults, Vlp16RingsWidenTheHeightGap) {
   Params p = outdoor_preset();
   const auto chosen = adapt_to_sensor(p, outdoor_preset(), s);
   ASSERT_EQ(chosen.size(), 1U);
-  EXPECT_EQ(chosen[0].name, "map.point_distance_threshold");
-  EXPECT_NEAR(p.map.point_distance_threshold, 0.87, 0.01);
+  EXPECT_EQ(chosen[0].name, "map.ring_gap_slope");
+  EXPECT_NEAR(p.map.ring_gap_slope, 1.1 * std::tan(2.0 * kDeg), 0.001);
+  EXPECT_NE(chosen[0].reason.find("the height gap is 0.40 m near and 0.96 m at 25 m"), std::string::npos) << chosen[0].reason;
+  EXPECT_DOUBLE_EQ(p.map.point_distance_threshold, outdoor_preset().map.point_distance_threshold);
+  // A gap or a slope the user set is theirs.
+  Params gap = outdoor_preset();
+  gap.map.point_distance_threshold = 0.6;
+  EXPECT_TRUE(adapt_to_sensor(gap, outdoor_preset(), s).empty());
+  EXPECT_DOUBLE_EQ(gap.map.ring_gap_slope, 0.0);
+  Params slope = outdoor_preset();
+  slope.map.ring_gap_slope = 0.02;
+  EXPECT_TRUE(adapt_to_sensor(slope, outdoor_preset(), s).empty());
+  EXPECT_DOUBLE_EQ(slope.map.ring_gap_slope, 0.02);
 }
 
-TEST(SensorDefaults, Hdl64KeepsThePapersGap) {
-  // Rings 1/3°–1/2° apart: 0.15–0.22 m at 25 m, under the paper's 0.4 m, which stays.
+TEST(SensorDefaults, Hdl64KeepsThePapersGapWithinItsRange) {
+  // Rings 1/3°–1/2° apart: 0.15–0.22 m at 25 m, under the paper's 0.4 m, which stays the gap to
+  // 50 m and more.
   const SensorProfile s = profile_scan(scan_of(sim::SpinningLidarParams::hdl64e()));
   EXPECT_GE(s.rings, 30);
   EXPECT_GT(s.ring_spacing, 0.3 * kDeg);
@@ -50,20 +64,18 @@ TEST(SensorDefaults, Hdl64KeepsThePapersGap) {
   Params p = outdoor_preset();
   (void)adapt_to_sensor(p, outdoor_preset(), s);
   EXPECT_DOUBLE_EQ(p.map.point_distance_threshold, outdoor_preset().map.point_distance_threshold);
+  EXPECT_GT(p.map.ring_gap_slope * 50.0, 0.25);
+  EXPECT_LT(p.map.ring_gap_slope * 50.0, outdoor_preset().map.point_distance_threshold);
 }
 
 TEST(SensorDefaults, Os0SixtyFourRings) {
-  // The simulator's OS0-64: 64 rings over ±45° (1.43° apart): 0.62 m at 25 m.
+  // The simulator's OS0-64: 64 rings over ±45° (1.43° apart): 0.62 m at 25 m, 0.69 with the margin.
   const SensorProfile s = profile_scan(scan_of(sim::SpinningLidarParams::os0_64()));
   EXPECT_NEAR(s.ring_spacing, 90.0 / 63.0 * kDeg, 0.05 * kDeg);
   Params p = outdoor_preset();
   (void)adapt_to_sensor(p, outdoor_preset(), s);
-  EXPECT_NEAR(p.map.point_distance_threshold, 0.62, 0.02);
-  // A value the user set is theirs.
-  Params mine = outdoor_preset();
-  mine.map.point_distance_threshold = 0.5;
-  EXPECT_TRUE(adapt_to_sensor(mine, outdoor_preset(), s).empty());
-  EXPECT_DOUBLE_EQ(mine.map.point_distance_threshold, 0.5);
+  EXPECT_NEAR(p.map.ring_gap_slope * 25.0, 0.69, 0.02);
+  EXPECT_DOUBLE_EQ(p.map.point_distance_threshold, outdoor_preset().map.point_distance_threshold);
 }
 
 TEST(SensorDefaults, NoRingsNoChange) {
@@ -126,16 +138,17 @@ TEST(SensorDefaults, PresetFromTheSensorsReach) {
     EXPECT_LT(l.range_p95, 10.0);
     EXPECT_EQ(preset_for_sensor(l, &why), "room");
     EXPECT_NE(why.find("beyond the indoor preset's 5 m range, inside the room preset's 10 m"), std::string::npos) << why;
-    // A LiDAR reaches beyond the room: the outdoor preset's 25 m; the height gap stays its rings' at the
-    // room's 10 m (a VLP-16's 0.35 m, under the preset's 0.4 m).
+    // A LiDAR reaches beyond the room: the outdoor preset's 25 m; the height gap is the preset's
+    // 0.4 m near, and grows with the rings' spread beyond.
     Params p = room_preset();
     const auto chosen = adapt_to_sensor(p, room_preset(), l);
-    ASSERT_FALSE(chosen.empty());
+    ASSERT_EQ(chosen.size(), 2U);
     EXPECT_EQ(chosen[0].name, "map.max_range");
     EXPECT_DOUBLE_EQ(p.map.max_range, 25.0);
     EXPECT_NE(chosen[0].reason.find("reaches beyond the room"), std::string::npos) << chosen[0].reason;
+    EXPECT_EQ(chosen[1].name, "map.ring_gap_slope");
+    EXPECT_GT(p.map.ring_gap_slope, 0.0);
     EXPECT_DOUBLE_EQ(p.map.point_distance_threshold, 0.4);
-    EXPECT_EQ(chosen.size(), 1U);
     // Named by the user, the range stands, even at the preset's value.
     Params named = room_preset();
     (void)adapt_to_sensor(named, room_preset(), l, true);

@@ -105,6 +105,10 @@ std::vector<ParamRef> param_refs(Params& p) {
   r.push_back(ref("map.cell_size", "m", "edge of a square grid cell", m.cell_size, closed(0.001, 100.0)));
   r.push_back(ref("map.point_distance_threshold", "m", "z gap that splits a height cluster (Alg. 2)",
                   m.point_distance_threshold, closed(0.0, 100.0)));
+  r.push_back(ref("map.ring_gap_slope", "m/m",
+                  "the z gap grows by this per metre of a cell's distance from the sensor (at most 1 m): "
+                  "a spinning LiDAR's rings on a far wall; 0 = the fixed gap",
+                  m.ring_gap_slope, closed(0.0, 1.0)));
   r.push_back(ref("map.min_range", "m", "points closer to the sensor are dropped", m.min_range, closed(0.0, 1000.0)));
   r.push_back(ref("map.max_range", "m", "points farther from the sensor are dropped", m.max_range,
                   above(0.0, 10000.0)));

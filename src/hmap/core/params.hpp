@@ -22,6 +22,9 @@ enum class FreeSpaceMode : std::uint8_t {
 struct MapParams {
   double cell_size = 0.25;                 ///< [m] edge of a square grid cell
   double point_distance_threshold = 0.4;   ///< [m] gap on z that splits a height cluster (Alg. 2)
+  double ring_gap_slope = 0.0;             ///< [m/m] the gap grows by this per metre of a cell's distance
+                                           ///< from the sensor (a spinning LiDAR's rings on a wall spread
+                                           ///< with range); 0: point_distance_threshold everywhere
   double min_range = 1.2;                  ///< [m] points closer to the sensor are dropped
   double max_range = 25.0;                 ///< [m] points farther from the sensor are dropped
   double density_gain = 1.0;               ///< K_m, eq. (1) amplitude gain [-]

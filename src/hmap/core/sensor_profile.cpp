@@ -118,10 +118,7 @@ std::vector<ChosenDefault> adapt_to_sensor(Params& p, const Params& preset_param
   // sensor reaches: a LiDAR that starts in a room sees the hall or the street beyond it later.
   // With the room preset's 10 m it lost the simulated hall beyond a small room (docs/SLAM.md,
   // "Session 33"). A LiDAR keeps the outdoor preset's range, within the scan window's 2048 cells.
-  // The walls of that place stand within the range chosen for it: the rings' height gap is taken
-  // there (at the LiDAR's 25 m a VLP-16's 0.87 m gap merged a room's tables with its floor: the
-  // simulated office mounted turned 20 deg went from 0.82-0.86 % to 1.27-1.31 % RPE).
-  const double place = p.map.max_range;
+  const double place = p.map.max_range;  // the range the preset was chosen for
   double reach = std::min(outdoor_preset().map.max_range, 2048.0 * p.map.cell_size);
   while (std::ceil(reach / p.map.cell_size) > 2048.0) reach = std::nextafter(reach, 0.0);  // validate()'s rule, exactly
   if (is_spinning_lidar(sensor) && !max_range_named && p.map.max_range == preset_params.map.max_range &&
@@ -130,7 +127,29 @@ std::vector<ChosenDefault> adapt_to_sensor(Params& p, const Params& preset_param
     chosen.push_back({"map.max_range", reach,
                       format("a LiDAR (%d rings) reaches beyond the room its first scan was taken in", sensor.rings)});
   }
-  if (sensor.rings > 0 && p.map.point_distance_threshold == preset_params.map.point_distance_threshold) {
+  const bool gap_unset = p.map.ring_gap_slope == preset_params.map.ring_gap_slope &&
+                         p.map.point_distance_threshold == preset_params.map.point_distance_threshold;
+  if (is_spinning_lidar(sensor) && gap_unset) {
+    // Neighbouring rings hit a wall at a horizontal distance d about d · tan(spacing) apart in
+    // height (more by 1/cos² of the elevation: 7 % at a VLP-16's 15 deg; the rings that reach a
+    // far wall are the near-horizontal ones): the gap grows with each cell's distance, so that a
+    // far wall is one HVoxel while a near table stays apart from the floor under it. One gap for
+    // the whole range could not do both: a VLP-16's 0.87 m at 25 m merged a room's tables with
+    // its floor, the preset's 0.4 m split a hall's far walls ring by ring (docs/SLAM.md, "Session 34").
+    constexpr double kMargin = 1.1;
+    const double slope = std::round(kMargin * std::tan(sensor.ring_spacing) * 1e4) / 1e4;
+    if (slope > 0.0) {
+      p.map.ring_gap_slope = slope;
+      const double base = p.map.point_distance_threshold;
+      chosen.push_back({"map.ring_gap_slope", slope,
+                        format("%d rings %.2f deg apart: the height gap is %.2f m near and %.2f m at %.0f m "
+                               "(1 m at most)",
+                               sensor.rings, sensor.ring_spacing * 180.0 / std::numbers::pi, base,
+                               std::max(base, std::min(slope * p.map.max_range, 1.0)), p.map.max_range)});
+    }
+  } else if (!is_spinning_lidar(sensor) && sensor.rings > 0 && gap_unset) {
+    // Rows that read as rings but not all around (the simulated Kinect's beyond 5 m: docs/SLAM.md,
+    // "Session 33"): one gap, at the range the preset was chosen for, as before session 34.
     const double gap = sensor.ring_spacing * place;
     const double value = std::clamp(gap, preset_params.map.point_distance_threshold, 1.0);
     const std::string reason = format("%d rings %.2f deg apart: %.2f m between rings at the %.0f m range %s",

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <numbers>
 
 #include "hmap/core/checked.hpp"
 #include "hmap/core/error.hpp"
@@ -16,6 +17,10 @@ namespace hmap {
 
 namespace {
 constexpr std::ptrdiff_t kRankSortMax = 8;
+
+/// [m] The most map.ring_gap_slope widens the height gap to (the threshold itself may be more): a
+/// VLP-16's rings are 0.87 m apart at 25 m, and a wider gap would join a table to the floor.
+constexpr double kMaxRingGap = 1.0;
 
 /// Cells at or beyond this many in magnitude are never in a scan's window: build() keeps the
 /// window's centre within 10^9 cells and the constructor its half width within 2^20 + 1.
@@ -31,6 +36,12 @@ inline std::int64_t floor_near(double v) {
 }  // namespace
 
 ScanHVoxelizer::ScanHVoxelizer(const MapParams& params) : params_(params) {
+  // The ring gap matters only where it passes the threshold within the window (the window's cells
+  // lie within max_range + a cell's diagonal of the sensor): for an HDL-64's 0.4 deg rings it
+  // never does within 25 m, and every cell keeps the threshold, as without a slope.
+  ring_gap_ = params_.ring_gap_slope > 0.0 &&
+              std::min(params_.ring_gap_slope * (params_.max_range + params_.cell_size * std::numbers::sqrt2), kMaxRingGap) >
+                  params_.point_distance_threshold;
   // validate() keeps max_range / cell_size <= 2048.
   window_.half = checked_count<std::int32_t>(params_.max_range / params_.cell_size, 1 << 20, "the scan window") + 1;
   window_.width = 2 * window_.half + 1;
@@ -177,6 +188,19 @@ void ScanHVoxelizer::index_points(std::span<const Point3f> points_sensor, const 
   out.points_kept = kept;
 }
 
+float ScanHVoxelizer::cell_gap(const ScanHVoxels& out, std::size_t c) const {
+  if (!ring_gap_) return static_cast<float>(params_.point_distance_threshold);
+  // Two neighbouring rings of a spinning LiDAR hit a wall at a distance d about slope · d apart in
+  // height: the gap that keeps the wall one HVoxel, taken at the cell's far corner (its centre's
+  // distance plus half its diagonal), never under the threshold, and at most kMaxRingGap.
+  const double cell = params_.cell_size;
+  const CellKey& key = out.cells[c].key;
+  const double dx = (key.i + 0.5) * cell - out.origin_map.x();
+  const double dy = (key.j + 0.5) * cell - out.origin_map.y();
+  const double far = std::sqrt(dx * dx + dy * dy) + cell * std::numbers::sqrt2 / 2.0;
+  return static_cast<float>(std::max(params_.point_distance_threshold, std::min(params_.ring_gap_slope * far, kMaxRingGap)));
+}
+
 void ScanHVoxelizer::cluster_heights(ScanHVoxels& out) {
   // Counting sort of the kept heights by cell: each cell's heights become one contiguous slice.
   const std::size_t n_cells = out.cells.size();
@@ -190,11 +214,12 @@ void ScanHVoxelizer::cluster_heights(ScanHVoxels& out) {
   cell_offset_[0] = 0;
 
   // HeightClustering, cells in parallel: sort each slice and count its clusters, then place the
-  // HVoxels of every cell at its offset.
-  const auto gap = static_cast<float>(params_.point_distance_threshold);
+  // HVoxels of every cell at its offset. The gap is map.point_distance_threshold, or with
+  // map.ring_gap_slope it grows with the cell's distance from the sensor (cell_gap).
   cluster_count_.resize(n_cells + 1);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n_cells, 1024), [&](const auto& range) {
     for (std::size_t c = range.begin(); c != range.end(); ++c) {
+      const float gap = cell_gap(out, c);
       float* z = sorted_z_.data() + cell_offset_[c];
       float* z_end = sorted_z_.data() + cell_offset_[c + 1];
       const std::ptrdiff_t n = z_end - z;
@@ -250,6 +275,7 @@ void ScanHVoxelizer::cluster_heights(ScanHVoxels& out) {
   const double min_height = params_.min_hvoxel_height;
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n_cells, 1024), [&](const auto& range) {
     for (std::size_t c = range.begin(); c != range.end(); ++c) {
+      const float gap = cell_gap(out, c);
       const float* z = sorted_z_.data() + cell_offset_[c];
       const float* z_end = sorted_z_.data() + cell_offset_[c + 1];
       ScanCell& cell = out.cells[c];

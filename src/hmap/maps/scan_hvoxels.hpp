@@ -115,6 +115,12 @@ class ScanHVoxelizer {
   /// Scan cell index + 1 of each window cell of the last build (0: no point there).
   [[nodiscard]] const std::vector<std::uint32_t>& cell_of_window() const { return cell_of_window_; }
 
+  /// The height gap that splits the cluster of `out`'s cell `c` (a scan this builder made):
+  /// map.point_distance_threshold, grown with the cell's distance from the sensor by
+  /// map.ring_gap_slope (at most 1 m, or the threshold when that is more). The mapper merges the
+  /// cell's HVoxels into the map with the same gap (III-D).
+  [[nodiscard]] float cell_gap(const ScanHVoxels& out, std::size_t c) const;
+
  private:
   void index_points(std::span<const Point3f> points_sensor, const Pose& T_map_sensor,
                     ScanHVoxels& out);                 // Alg. 1
@@ -133,6 +139,7 @@ class ScanHVoxelizer {
   std::vector<Eigen::Vector3d> centroid_sums_;  // per HVoxel: Σx, Σy (from the origin), n
   bool keep_centroids_ = false;
   bool keep_wall_lean_ = false;
+  bool ring_gap_ = false;  // map.ring_gap_slope widens the gap of some cell of the window
   std::vector<std::array<double, 9>> moments_;  // per HVoxel with keep_wall_lean_: Σx Σy Σz Σxx Σxy Σyy Σxz Σyz Σzz
   std::vector<std::uint32_t> cell_offset_;     // counting sort of heights by cell
   std::vector<float> sorted_z_;
