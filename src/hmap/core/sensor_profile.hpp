@@ -1,6 +1,6 @@
 #pragma once
 // What a scan tells about its sensor, and the defaults chosen from it: a spinning LiDAR's ring
-// spacing sets the height gap that keeps a far wall one HVoxel (map.point_distance_threshold).
+// spacing sets how the height gap grows with range, so that a far wall stays one HVoxel (map.ring_gap_slope).
 
 #include <span>
 #include <string>
@@ -53,11 +53,13 @@ struct ChosenDefault {
 /// - map.max_range = the outdoor preset's 25 m (at most 2048 cells) for a LiDAR (is_spinning_lidar) whose
 ///   preset reaches less: the first scan tells the size of the place the recording starts in, not
 ///   the sensor's reach, and a LiDAR that starts in a room sees the hall or street beyond it later.
-/// - map.point_distance_threshold = ring spacing × map.max_range as it was before the line above
-///   (clamped to [preset, 1 m]): two neighbouring rings on a wall at the far end of the range the
-///   preset was chosen for are that far apart, and a larger
-///   gap than the preset's 0.4 m keeps such a wall one HVoxel instead of one per ring (a VLP-16's
-///   2° rings on a wall past 11.5 m).
+/// - map.ring_gap_slope = 1.1 × tan(ring spacing) for a LiDAR, when neither it nor
+///   map.point_distance_threshold was set: two neighbouring rings on a wall at a distance d are
+///   d · tan(spacing) apart, so the height gap of each cell grows with its distance from the
+///   sensor (from the preset's 0.4 m, at most 1 m), and a far wall stays one HVoxel instead of one
+///   per ring (a VLP-16's 2° rings past 10.4 m) while a near table stays apart from the floor.
+/// - map.point_distance_threshold = ring spacing × map.max_range as it was before the first line
+///   (clamped to [preset, 1 m]) for rows that read as rings but not all around (no LiDAR).
 [[nodiscard]] std::vector<ChosenDefault> adapt_to_sensor(Params& p, const Params& preset_params,
                                                          const SensorProfile& sensor, bool max_range_named = false);
 
