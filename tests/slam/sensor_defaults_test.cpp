@@ -9,8 +9,11 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <random>
 
 #include "hmap/sim/builtin_scenes.hpp"
+#include "hmap/sim/composites.hpp"
+#include "hmap/sim/scene.hpp"
 #include "hmap/sim/sensors.hpp"
 
 namespace hmap {
@@ -94,6 +97,54 @@ TEST(SensorDefaults, NoRingsNoChange) {
   EXPECT_EQ(profile_scan(PointCloud(10, Point3f(NAN, 0.0F, 0.0F))).points, 0U);
   Params p = outdoor_preset();
   EXPECT_TRUE(adapt_to_sensor(p, outdoor_preset(), profile_scan(dense)).empty());
+}
+
+// A LiDAR in a closed 4 x 3 m room sees nothing beyond 5 m, where the rings are read: they are read
+// from 2 m on when the points lie all around. A depth camera in the same room is not read there.
+TEST(SensorDefaults, ALidarInAClosedRoomIsFoundByItsRingsNearBy) {
+  sim::SceneBuilder b;
+  b.add("floor", sim::make_ground({-2.2, -1.7}, {2.2, 1.7}, 0.0));
+  b.add("ceiling", sim::make_ceiling({-2.2, -1.7}, {2.2, 1.7}, 2.5));
+  b.add("north", sim::make_wall({-2.1, 1.6}, {2.1, 1.6}, 2.5));
+  b.add("south", sim::make_wall({-2.1, -1.6}, {2.1, -1.6}, 2.5));
+  b.add("east", sim::make_wall({2.1, -1.6}, {2.1, 1.6}, 2.5));
+  b.add("west", sim::make_wall({-2.1, -1.6}, {-2.1, 1.6}, 2.5));
+  const sim::Scene room = b.build();
+  Pose T = Pose::Identity();
+  T.translation() = Eigen::Vector3d(0.3, 0.2, 0.8);
+  sim::SpinningLidar vlp16(sim::SpinningLidarParams::vlp16());
+  const SensorProfile s = profile_scan(vlp16.scan(room, T, 0.0).points_sensor);
+  EXPECT_LT(s.range_p95, 3.0);
+  EXPECT_GT(s.azimuth_coverage, 0.99);
+  EXPECT_GE(s.rings, 12);
+  EXPECT_NEAR(s.ring_spacing, 2.0 * kDeg, 0.1 * kDeg);
+  EXPECT_TRUE(is_spinning_lidar(s));
+  EXPECT_EQ(preset_for_sensor(s), "room");
+  Params p = room_preset();
+  (void)adapt_to_sensor(p, room_preset(), s);
+  EXPECT_DOUBLE_EQ(p.map.max_range, 25.0);
+  EXPECT_GT(p.map.ring_gap_slope, 0.0);
+  // The same room seen through a 70 deg depth camera: no rings read near by, the indoor preset.
+  sim::DepthCamera kinect(sim::DepthCameraParams::kinect_one());
+  const SensorProfile k = profile_scan(kinect.scan(room, T, 0.0).points_sensor);
+  EXPECT_LT(k.azimuth_coverage, 0.5);
+  EXPECT_EQ(k.rings, 0);
+  EXPECT_EQ(preset_for_sensor(k), "indoor");
+  // 1500 points all around at 3 m whose elevations spread thinly over ±25 deg (a slow sweeping
+  // laser's): a few 0.05 deg bins pass the count by chance, but hold few of the points: no rings.
+  std::mt19937 rng(34);
+  std::uniform_real_distribution<double> el(-25.0 * kDeg, 25.0 * kDeg);
+  std::uniform_real_distribution<double> az(-std::numbers::pi, std::numbers::pi);
+  PointCloud thin;
+  for (int i = 0; i < 1500; ++i) {
+    const double e = el(rng);
+    const double a = az(rng);
+    thin.emplace_back(static_cast<float>(3.0 * std::cos(e) * std::cos(a)), static_cast<float>(3.0 * std::cos(e) * std::sin(a)),
+                      static_cast<float>(3.0 * std::sin(e)));
+  }
+  const SensorProfile t = profile_scan(thin);
+  EXPECT_GT(t.azimuth_coverage, 0.9);
+  EXPECT_EQ(t.rings, 0);
 }
 
 TEST(SensorDefaults, PresetFromTheSensorsReach) {

@@ -17,9 +17,11 @@ SensorProfile profile_scan(std::span<const Point3f> points_sensor) {
   constexpr double kBin = 0.05 * std::numbers::pi / 180.0;
   constexpr int kBins = static_cast<int>(std::numbers::pi / kBin) + 2;
   std::vector<std::uint32_t> hist(static_cast<std::size_t>(kBins), 0);
+  std::vector<std::uint32_t> near_hist(static_cast<std::size_t>(kBins), 0);  // points 2-5 m away
   std::vector<float> ranges;
   std::array<bool, 360> azimuths{};
   std::size_t far = 0;
+  std::size_t near = 0;
   for (std::size_t k = 0; k < points_sensor.size(); k += stride) {
     const Point3f& q = points_sensor[k];
     if (!q.allFinite()) continue;
@@ -31,14 +33,28 @@ SensorProfile profile_scan(std::span<const Point3f> points_sensor) {
       const double az = std::atan2(static_cast<double>(q.y()), static_cast<double>(q.x())) * 180.0 / std::numbers::pi;  // (-180, 180]
       azimuths[static_cast<std::size_t>(std::clamp(static_cast<int>(std::floor(az + 180.0)), 0, 359))] = true;
     }
-    if (r < 5.0) continue;
+    if (r < 2.0) continue;
     const double elevation = std::atan2(static_cast<double>(q.z()), h);  // in [−π/2, π/2]
     const auto bin = static_cast<std::size_t>(std::clamp(
         static_cast<int>((elevation + 0.5 * std::numbers::pi) / kBin), 0, kBins - 1));
+    if (r < 5.0) {
+      ++near_hist[bin];
+      ++near;
+      continue;
+    }
     ++hist[bin];
     ++far;
   }
   out.azimuth_coverage = static_cast<double>(std::count(azimuths.begin(), azimuths.end(), true)) / 360.0;
+  const bool near_rings = far < 1000 && out.azimuth_coverage > 0.5;
+  if (near_rings) {
+    // Everything within 5 m and all around: a LiDAR in a small closed room. Its rings are read
+    // from 2 m on (blurred more by the beams' offsets from the origin: a VLP-16's 2 deg rings
+    // stay apart, an HDL-64's may not, and are then not found). A narrower view (a depth
+    // camera's) is never read this near: its rows would pass for rings.
+    hist.swap(near_hist);
+    far = near;
+  }
   if (!ranges.empty()) {
     const auto p95 = ranges.begin() + static_cast<std::ptrdiff_t>(0.95 * static_cast<double>(ranges.size() - 1));
     std::nth_element(ranges.begin(), p95, ranges.end());
@@ -51,11 +67,13 @@ SensorProfile profile_scan(std::span<const Point3f> points_sensor) {
   std::size_t populated = 0;
   double sum = 0.0;
   double weighted = 0.0;
+  double in_rings = 0.0;
   for (int b = 0; b <= kBins; ++b) {
     const double c = b < kBins ? static_cast<double>(hist[static_cast<std::size_t>(b)]) : 0.0;
     if (c >= min_count) {
       sum += c;
       weighted += c * (b + 0.5);
+      in_rings += c;
       ++populated;
     } else if (sum > 0.0) {
       centres.push_back(weighted / sum * kBin);
@@ -64,6 +82,10 @@ SensorProfile profile_scan(std::span<const Point3f> points_sensor) {
     }
   }
   if (centres.size() < 4) return out;
+  // Near by, a LiDAR's points lie on its rings (the bins that pass the count); elevations spread
+  // thinly over the span (a few thousand points of a sweeping laser) pass the count in a few bins
+  // by chance, holding a small share of them.
+  if (near_rings && in_rings < 0.8 * static_cast<double>(far)) return out;
   const double span_bins = (centres.back() - centres.front()) / kBin + 1.0;
   if (static_cast<double>(populated) >= 0.5 * span_bins) return out;
   std::vector<double> steps;

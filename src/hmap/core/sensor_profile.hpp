@@ -25,7 +25,9 @@ struct SensorProfile {
 [[nodiscard]] inline bool is_spinning_lidar(const SensorProfile& s) { return s.rings > 0 && s.azimuth_coverage > 0.5; }
 
 /// Elevations atan2(z, √(x²+y²)) of the points farther than 5 m (nearer, the beams' offset from
-/// the sensor origin blurs the rings), in 0.05° bins; runs of bins holding at least 0.1 % of the
+/// the sensor origin blurs the rings; of those from 2 m on when fewer than 1000 lie beyond 5 m
+/// and the points cover more than half of the azimuths: a LiDAR in a small closed room), in
+/// 0.05° bins; runs of bins holding at least 0.1 % of the
 /// points are rings. Ring-structured when at least 4 rings fill under half of the elevation span
 /// they cover (a depth camera's or sweeping laser's elevations fill it) and are at least 0.2° apart.
 /// The azimuth coverage counts every finite point off the vertical axis.
