@@ -138,6 +138,20 @@ TEST(ResolveParamsForScanTest, ALidarInARoomTakesTheRoomCellAndKeepsItsReach) {
   ASSERT_EQ(chosen.adapted.size(), 2U);
   EXPECT_EQ(chosen.adapted[1].name, "map.ring_gap_slope");
   EXPECT_NEAR(chosen.params.map.ring_gap_slope, 0.0384, 0.001);
+  // A gap the user names stands, even at the preset's value: `--set map.ring_gap_slope=0` keeps
+  // one gap for every cell, and so does a threshold named at the preset's 0.4 m (by --set or a value).
+  for (const auto& [overrides, values] :
+       {std::pair<std::vector<std::string>, std::vector<std::pair<std::string, double>>>{{"map.ring_gap_slope=0"}, {}},
+        {{"map.point_distance_threshold=0.4"}, {}},
+        {{}, {{"map.ring_gap_slope", 0.0}}}}) {
+    ParamSources gap = sources;
+    gap.overrides = overrides;
+    gap.values = values;
+    const ScanParams one_gap = resolve_params_for_scan(gap, lidar_in_a_room());
+    EXPECT_EQ(one_gap.params.map.ring_gap_slope, 0.0);
+    EXPECT_EQ(one_gap.params.map.point_distance_threshold, 0.4);
+    EXPECT_EQ(one_gap.params.map.max_range, 25.0);  // the range is still the LiDAR's
+  }
   // A range the user names stands, by flag or by --set, even at the preset's value; so does a named
   // preset's.
   ParamSources flag = sources;

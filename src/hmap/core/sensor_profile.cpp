@@ -134,7 +134,7 @@ std::string preset_for_sensor(const SensorProfile& sensor, std::string* reason) 
 }
 
 std::vector<ChosenDefault> adapt_to_sensor(Params& p, const Params& preset_params, const SensorProfile& sensor,
-                                           bool max_range_named) {
+                                           bool max_range_named, bool gap_named) {
   std::vector<ChosenDefault> chosen;
   // The first scan tells how large the place is where the recording starts, not how far the
   // sensor reaches: a LiDAR that starts in a room sees the hall or the street beyond it later.
@@ -149,7 +149,7 @@ std::vector<ChosenDefault> adapt_to_sensor(Params& p, const Params& preset_param
     chosen.push_back({"map.max_range", reach,
                       format("a LiDAR (%d rings) reaches beyond the room its first scan was taken in", sensor.rings)});
   }
-  const bool gap_unset = p.map.ring_gap_slope == preset_params.map.ring_gap_slope &&
+  const bool gap_unset = !gap_named && p.map.ring_gap_slope == preset_params.map.ring_gap_slope &&
                          p.map.point_distance_threshold == preset_params.map.point_distance_threshold;
   if (is_spinning_lidar(sensor) && gap_unset) {
     // Neighbouring rings hit a wall at a horizontal distance d about d · tan(spacing) apart in

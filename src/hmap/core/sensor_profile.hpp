@@ -50,19 +50,21 @@ struct ChosenDefault {
 
 /// Adapts `p` to the sensor, for parameters still at their value in `preset_params` (a value the
 /// user set, even to the preset's, is the user's when it differs; equal values are taken as unset,
-/// but for map.max_range when `max_range_named`: resolve_params_for_scan says so for a range or a
-/// preset the user named). Returns what it changed.
+/// but for map.max_range when `max_range_named`, and for the height gap (map.ring_gap_slope and
+/// map.point_distance_threshold) when `gap_named`: resolve_params_for_scan says so for a range, a
+/// preset or a gap the user named). Returns what it changed.
 /// - map.max_range = the outdoor preset's 25 m (at most 2048 cells) for a LiDAR (is_spinning_lidar) whose
 ///   preset reaches less: the first scan tells the size of the place the recording starts in, not
 ///   the sensor's reach, and a LiDAR that starts in a room sees the hall or street beyond it later.
 /// - map.ring_gap_slope = 1.1 × tan(ring spacing) for a LiDAR, when neither it nor
-///   map.point_distance_threshold was set: two neighbouring rings on a wall at a distance d are
+///   map.point_distance_threshold was set (`--set map.ring_gap_slope=0` keeps one gap): two neighbouring rings on a wall at a distance d are
 ///   d · tan(spacing) apart, so the height gap of each cell grows with its distance from the
 ///   sensor (from the preset's 0.4 m, at most 1 m), and a far wall stays one HVoxel instead of one
 ///   per ring (a VLP-16's 2° rings past 10.4 m) while a near table stays apart from the floor.
 /// - map.point_distance_threshold = ring spacing × map.max_range as it was before the first line
 ///   (clamped to [preset, 1 m]) for rows that read as rings but not all around (no LiDAR).
 [[nodiscard]] std::vector<ChosenDefault> adapt_to_sensor(Params& p, const Params& preset_params,
-                                                         const SensorProfile& sensor, bool max_range_named = false);
+                                                         const SensorProfile& sensor, bool max_range_named = false,
+                                                         bool gap_named = false);
 
 }  // namespace hmap

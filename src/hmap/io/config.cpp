@@ -2,6 +2,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <map>
@@ -159,12 +160,19 @@ ScanParams resolve_params_for_scan(const ParamSources& sources, std::span<const 
   out.preset = chosen.preset;
   out.params = resolve_params(chosen);
   // A range the user named (--max-range, --set, a value) stands even where it equals the preset's,
-  // and so does the range of a preset the user named.
-  const auto names_range = [](std::string_view name) { return name == "map.max_range"; };
-  bool range_named = sources.max_range.has_value() || !sources.preset.empty();
-  for (const std::string& o : sources.overrides) range_named = range_named || names_range(std::string_view(o).substr(0, o.find('=')));
-  for (const auto& [name, value] : sources.values) range_named = range_named || names_range(name);
-  out.adapted = adapt_to_sensor(out.params, preset(out.preset), sensor, range_named);
+  // and so does the range of a preset the user named. So does a height gap named by --set or a
+  // value (`--set map.ring_gap_slope=0`: one gap for every cell). A parameter file's values are
+  // taken as unset where they equal the preset's.
+  const auto named = [&sources](std::initializer_list<std::string_view> names) {
+    const auto is = [&names](std::string_view n) { return std::find(names.begin(), names.end(), n) != names.end(); };
+    bool any = false;
+    for (const std::string& o : sources.overrides) any = any || is(std::string_view(o).substr(0, o.find('=')));
+    for (const auto& [name, value] : sources.values) any = any || is(name);
+    return any;
+  };
+  const bool range_named = sources.max_range.has_value() || !sources.preset.empty() || named({"map.max_range"});
+  const bool gap_named = named({"map.ring_gap_slope", "map.point_distance_threshold"});
+  out.adapted = adapt_to_sensor(out.params, preset(out.preset), sensor, range_named, gap_named);
   validate(out.params);
   return out;
 }
