@@ -72,8 +72,6 @@ void Mapper::group_by_tile(const ScanWindow& window, std::size_t n, KeyOf key_of
 
 void Mapper::merge_scan() {
   const MapParams& p = map_.params().map;
-  const auto gap = static_cast<float>(p.point_distance_threshold);
-  const bool ring_gap = p.ring_gap_slope > 0.0;
   // Tile by tile: one lookup per tile, and its buffer in cache while its columns merge. The tiles
   // the map lacks are made first, in the order of their first cell in the scan, as a lookup per
   // cell made them: the map's tiles stay in the same order.
@@ -94,7 +92,7 @@ void Mapper::merge_scan() {
       const ScanCell& cell = scan_.cells[g.order[k]];
       TileColumn column(tile, HMap::local_index(cell.key));
       // III-D joins within the gap the cell's points were clustered with (map.ring_gap_slope).
-      const float cell_gap = ring_gap ? hvoxelizer_.cell_gap(scan_, g.order[k]) : gap;
+      const float cell_gap = hvoxelizer_.cell_gap(scan_, g.order[k]);
       for (const HVoxel& v : scan_.hvoxels_of(cell)) column.merge(v, cell_gap, p);
     }
   }
