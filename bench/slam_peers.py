@@ -2,7 +2,7 @@
 """hmap slam beside the LiDAR-only peers on the same KITTI-layout sequences, in one script.
 
 Runs, per sequence: `hmap slam --kitti DIR --out ...` (defaults, no reference attitude),
-Debian's Open3D point-to-plane ICP (scan to scan, constant-velocity guess), and KISS-ICP built
+Debian's Open3D point-to-plane ICP (scan to scan, every point, constant-velocity guess), and KISS-ICP built
 from ../shared/peers (drivers/build_kiss_icp.sh; skipped with a message when the folder is absent).
 Scores every trajectory with `hmap eval traj --json` against the sequence's poses.txt when it has
 one, else against the Open3D trajectory (then: mean per-frame motion difference and end-point
@@ -58,7 +58,14 @@ def cpu_seconds():
     return r.ru_utime + r.ru_stime + c.ru_utime + c.ru_stime
 
 
-def run_open3d(seq, max_range, voxel, constant_velocity):
+# Open3D's settings, the same for every sequence: every point (no voxel grid: at 0.2 m its
+# quantisation moved KITTI's end point 3-6 cm from every finer run, docs/SLAM.md "Session 35"),
+# normals from the neighbours within 0.5 m, correspondences within 0.6 m.
+O3D_NORMAL_RADIUS = 0.5  # [m]
+O3D_MAX_DISTANCE = 0.6  # [m]
+
+
+def run_open3d(seq, max_range, constant_velocity):
     """Point-to-plane ICP scan to scan, KITTI scans as float32 x y z i; the initial guess is the
     last motion (constant_velocity) or none (a hand-held sensor's turn rate changes sign between
     scans: constant velocity throws ICP out of its basin on balm_os0)."""
@@ -69,11 +76,11 @@ def run_open3d(seq, max_range, voxel, constant_velocity):
         xyz = np.fromfile(path, dtype=np.float32).reshape(-1, 4)[:, :3].astype(np.float64)
         r = np.linalg.norm(xyz, axis=1)
         xyz = xyz[(r > 1.0) & (r < max_range)]
-        pc = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(xyz)).voxel_down_sample(voxel)
-        pc.estimate_normals(o3d.geometry.KDTreeSearchParamHybrid(radius=3 * voxel, max_nn=30))
+        pc = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(xyz))
+        pc.estimate_normals(o3d.geometry.KDTreeSearchParamHybrid(radius=O3D_NORMAL_RADIUS, max_nn=30))
         if prev is not None:
             reg = o3d.pipelines.registration.registration_icp(
-                pc, prev, 3 * voxel, delta, o3d.pipelines.registration.TransformationEstimationPointToPlane(),
+                pc, prev, O3D_MAX_DISTANCE, delta, o3d.pipelines.registration.TransformationEstimationPointToPlane(),
                 o3d.pipelines.registration.ICPConvergenceCriteria(max_iteration=50))
             poses.append(poses[-1] @ reg.transformation)
             delta = reg.transformation if constant_velocity else np.eye(4)
@@ -143,7 +150,7 @@ def main():
                        capture_output=True)
         runs["hmap slam (defaults)"] = (os.path.join(work, "hmap", "poses.txt"), time.time() - t0, cpu_seconds() - c0)
         t0, c0 = time.time(), cpu_seconds()
-        o3d_poses = run_open3d(seq, max_range, 0.1 if "os0" in name else 0.2, constant_velocity="os0" not in name)
+        o3d_poses = run_open3d(seq, max_range, constant_velocity="os0" not in name)
         path = os.path.join(work, "open3d.txt")
         write_kitti_poses(path, o3d_poses)
         runs["Open3D point-to-plane ICP"] = (path, time.time() - t0, cpu_seconds() - c0)
