@@ -251,6 +251,7 @@ void run_slam(const SlamOptions& o) {
   std::size_t degenerate = 0;
   std::size_t coarse = 0;
   std::size_t coarse_rejected = 0;  // the search's pick lay along what the scan does not constrain
+  std::size_t wide = 0;             // lost after the search: every heading searched too
   std::size_t skipped = 0;
   std::size_t heading_only = 0;
   std::size_t walls_applied = 0;
@@ -258,7 +259,7 @@ void run_slam(const SlamOptions& o) {
   std::size_t iterations = 0;
   double score_sum = 0.0;
   std::string log = "scan,matched,converged,iterations,initial_cost,final_cost,score,hvoxels,degenerate,coarse_search,"
-                    "coarse_rejected,skipped,eig0,eig1,eig2,guess_x,guess_y,guess_yaw,x,y,yaw,z,roll,pitch,attitude_fit,surfaces,surface_rms,"
+                    "coarse_rejected,wide_search,skipped,eig0,eig1,eig2,guess_x,guess_y,guess_yaw,x,y,yaw,z,roll,pitch,attitude_fit,surfaces,surface_rms,"
                     "observable_x,observable_y,observable_z,observable_roll,observable_pitch,observable_yaw,planar_passes,deskewed,"
                     "imu,tilt_hypotheses,tilt_from_floor,heading_only,wall_refined,wall_pairs,wall_rms,wall_dx,wall_dy,wall_dyaw,wall_tilt,wall_tilt_walls,ms\n";
 #ifdef HMAP_HAVE_VIEW
@@ -325,10 +326,10 @@ void run_slam(const SlamOptions& o) {
       const slam::Attitude at = slam::attitude_of(step.T_map_sensor);
       const auto& af = step.attitude;
       log += format(
-                    "%zu,%d,%d,%d,%.6g,%.6g,%.6g,%zu,%d,%d,%d,%d,%.6g,%.6g,%.6g,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,"
+                    "%zu,%d,%d,%d,%.6g,%.6g,%.6g,%zu,%d,%d,%d,%d,%d,%.6g,%.6g,%.6g,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,"
                     "%d,%zu,%.4f,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%zu,%.4f,%.5f,%.5f,%.6f,%.6f,%zu,%.3f\n",
                     k, step.matched ? 1 : 0, m.converged ? 1 : 0, m.iterations, m.initial_cost, m.final_cost, m.score,
-                    m.hvoxels_used, m.degenerate ? 1 : 0, m.coarse_search ? 1 : 0, m.coarse_rejected ? 1 : 0, m.skipped ? 1 : 0, m.eigenvalues(0),
+                    m.hvoxels_used, m.degenerate ? 1 : 0, m.coarse_search ? 1 : 0, m.coarse_rejected ? 1 : 0, m.wide_search ? 1 : 0, m.skipped ? 1 : 0, m.eigenvalues(0),
                     m.eigenvalues(1), m.eigenvalues(2), step.guess.x, step.guess.y, step.guess.yaw, xi.x, xi.y, xi.yaw,
                     at.z, at.roll, at.pitch, af.ran ? 1 : 0, af.surfaces, af.rms, step.observable[0] ? 1 : 0,
                     step.observable[1] ? 1 : 0, step.observable[2] ? 1 : 0, step.observable[3] ? 1 : 0,
@@ -351,6 +352,7 @@ void run_slam(const SlamOptions& o) {
       degenerate += step.match.degenerate ? 1 : 0;
       coarse += step.match.coarse_search ? 1 : 0;
       coarse_rejected += step.match.coarse_rejected ? 1 : 0;
+      wide += step.match.wide_search ? 1 : 0;
       skipped += step.match.skipped ? 1 : 0;
       heading_only += step.match.heading_only ? 1 : 0;
       walls_applied += step.walls.applied ? 1 : 0;
@@ -437,7 +439,8 @@ void run_slam(const SlamOptions& o) {
       n, n > 0 ? ms_total / static_cast<double>(n) : 0.0,
       ms_total > 0.0 ? 1000.0 * static_cast<double>(n) / ms_total : 0.0, static_cast<double>(iterations) / matched,
       converged, matches, degenerate, coarse,
-      coarse_rejected > 0 ? format(" (%zu of whose picks lay along what the scan does not constrain: the prediction's minimum kept)", coarse_rejected).c_str() : "",
+      (coarse_rejected > 0 ? format(" (%zu of whose picks lay along what the scan does not constrain: the prediction's minimum kept)", coarse_rejected) : std::string()).append(
+          wide > 0 ? format("; %zu fitted the map less than half as well as the matches before and searched every heading", wide) : std::string()).c_str(),
       skipped, slam::ScanMatcher::kMinHVoxels,
       heading_only > 0 ? format(", %zu turned their yaw alone on the thin HVoxels (x, y from odometry)", heading_only).c_str() : "",
       score_sum / scored,

@@ -455,6 +455,7 @@ py::dict slam_step_dict(const slam::SlamStep& step) {
   d["degenerate"] = m.degenerate;
   d["coarse_search"] = m.coarse_search;
   d["coarse_rejected"] = m.coarse_rejected;
+  d["wide_search"] = m.wide_search;
   d["skipped"] = m.skipped;
   d["heading_only"] = m.heading_only;
   py::dict fit;
@@ -1159,7 +1160,7 @@ PYBIND11_MODULE(_hmap, m) {
            "and yaw start the match (odometry; None: constant velocity). Runs without the GIL. Returns the step as "
            "a dict: T_map_sensor (4x4, at the stamp), T_map_merged (4x4, the pose the scan was merged at, "
            "merged_at_s [s] after the stamp: the sweep's middle when deskewed by the estimates' velocity), matched, converged, iterations, initial_cost, final_cost, score (mean M_H), "
-           "hvoxels_used, eigenvalues, degenerate, coarse_search, coarse_rejected, skipped, heading_only, attitude_fit, walls (slam.wall_refine: "
+           "hvoxels_used, eigenvalues, degenerate, coarse_search, coarse_rejected, wide_search, skipped, heading_only, attitude_fit, walls (slam.wall_refine: "
            "{'applied', 'pairs', 'rms', 'iterations', 'change': (dx, dy, dyaw), 'skipped_because'}), wall_tilt ((the tilt the walls' lean corrected [rad], the walls read): slam.wall_tilt_drift), observable ({'x': bool, "
            "... 'yaw': bool}), planar_passes, deskewed, sweep_velocity, imu_used, tilt_hypotheses, tilt_from_floor, "
            "mapping (the map update's figures), relocalised (the first scan of a continued map: {'shift': (x, y, z, yaw), "

@@ -114,6 +114,36 @@ TEST(HmapSlam, FollowsASimulatedDrive) {
   }
 }
 
+TEST(HmapSlam, FindsTheScanAgainAfterAJumpBeyondTheCoarseSearch) {
+  // Four HDL-64 scans 8 cm apart, then the sensor is 0.6 m and 75° on from where constant velocity
+  // puts it (scans dropped, a jerk): beyond the coarse search's ±0.5 m, ±0.5 rad. The match fits
+  // the map badly there, searches every heading and finds the scan; the scan after it is followed
+  // again. With the attitude given (one planar pass) and estimated (a second pass after the
+  // attitude fit, which starts where the first ended: the step still says it searched).
+  const sim::Scene scene = yard();
+  for (const bool given : {true, false}) {
+    Params params = yard_params();
+    params.map.cell_size = 0.1;  // the wide search's grid: 11 × 11 positions per heading
+    HmapSlam slam(params);
+    sim::SpinningLidar lidar(sim::SpinningLidarParams::hdl64e());
+    std::vector<PlanarPose> truths;
+    for (int k = 0; k < 4; ++k) truths.push_back({0.08 * k, 0.0, 0.0});
+    truths.push_back({0.24 + 0.08 + 0.6, 0.1, 75.0 * kDeg});
+    truths.push_back({0.92 + 0.05, 0.15, 76.0 * kDeg});
+    for (std::size_t k = 0; k < truths.size(); ++k) {
+      const Attitude att{1.8, k >= 4 ? 3.0 * kDeg : 0.0, 0.0};  // tilted by the jerk too
+      const PointCloud scan = lidar.scan(scene, compose(truths[k], att), 0.1 * static_cast<double>(k)).points_sensor;
+      const SlamStep step = slam.process(scan, given ? std::optional<Attitude>(att) : std::nullopt);
+      const PlanarPose est = planar_of(step.T_map_sensor);
+      EXPECT_NEAR(est.x, truths[k].x, 0.03) << k << " " << given;
+      EXPECT_NEAR(est.y, truths[k].y, 0.03) << k << " " << given;
+      EXPECT_NEAR(std::remainder(est.yaw - truths[k].yaw, 2.0 * std::numbers::pi), 0.0, 0.3 * kDeg) << k << " " << given;
+      EXPECT_EQ(step.match.wide_search, k == 4) << k << " " << given;
+      if (!given && k == 4) EXPECT_EQ(step.planar_passes, 2) << "the second pass carries the first's search";
+    }
+  }
+}
+
 TEST(HmapSlam, TheSameResultOnOneThreadAndOnFour) {
   // The matcher's sums, the degeneracy probes and the attitude fit's pairings run on the cores;
   // every sum is made in a fixed order, so the poses, the curvatures and the fits are bit for bit

@@ -206,7 +206,33 @@ TEST(ScanMatcher, ConvergenceBasin) {
   (void)with_search.match(s.scan_level, s.map, truth);  // a good match sets the reference score
   const MatchResult found = with_search.match(s.scan_level, s.map, far);
   EXPECT_TRUE(found.coarse_search);
+  EXPECT_FALSE(found.wide_search);  // found within the usual window
   EXPECT_TRUE(recovered(found, truth)) << found.pose.x << " " << found.pose.y << " " << found.pose.yaw;
+}
+
+TEST(ScanMatcher, ALostMatchSearchesEveryHeading) {
+  // The sensor turned 70° and moved 0.7 m more than predicted (a jerk, a dropped scan): outside the
+  // coarse search's ±0.5 m, ±0.5 rad. Its best there fits the map less than half as well as the
+  // last match, so every heading is searched within ±1 m, and the truth is found.
+  const sim::Scene scene = yard_builder().build();
+  Params p = yard_params();
+  p.map.cell_size = 0.1;  // the wide search's grid is then 11 × 11 positions, not 21 × 21
+  const PlanarPose truth{0.5, 0.3, 70.0 * kDeg};
+  TwoScans s = two_scans(scene, p, {PlanarPose{}}, truth);
+  const PlanarPose guess{-0.1, -0.1, 0.0};
+  // No match before it: nothing to compare the fit with, so nothing is taken for lost.
+  ScanMatcher fresh(p);
+  const MatchResult blind = fresh.match(s.scan_level, s.map, guess);
+  EXPECT_FALSE(blind.wide_search);
+  EXPECT_FALSE(recovered(blind, truth));
+  ScanMatcher matcher(p);
+  const MatchResult good = matcher.match(s.scan_level, s.map, truth);  // the reference fit
+  EXPECT_FALSE(good.wide_search);
+  const MatchResult lost = matcher.match(s.scan_level, s.map, guess);
+  EXPECT_TRUE(lost.coarse_search);
+  EXPECT_TRUE(lost.wide_search);
+  EXPECT_TRUE(recovered(lost, truth)) << lost.pose.x << " " << lost.pose.y << " " << lost.pose.yaw / kDeg;
+  EXPECT_GT(lost.score, 0.9 * good.score);
 }
 
 TEST(ScanMatcher, FeaturelessCorridorIsDegenerate) {

@@ -375,9 +375,13 @@ SlamStep HmapSlam::process(const ScanInput& input) {
       }
       built = false;
       matcher_.set_map_centroids(params_.slam.hvoxel_centroids >= 2 ? &map_centroids_ : nullptr);
+      // A first pass that was lost and searched every heading says so, though the pass after the
+      // attitude fit starts where it ended and needs no search.
+      const bool searched_wide = step.planar_passes > 0 && step.match.wide_search;
       step.match = matcher_.match(scan_level_, mapper_.map(), estimate, mode,
                                   scans_ >= 2 && !guess ? std::optional<PlanarPose>(last_) : std::nullopt,
                                   guess ? ThinFallback::kHeading : ThinFallback::kFull, prior);
+      step.match.wide_search = step.match.wide_search || searched_wide;
       estimate = step.match.pose;
       ++step.planar_passes;
     };

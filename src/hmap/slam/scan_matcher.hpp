@@ -69,6 +69,9 @@ struct MatchResult {
   std::array<bool, 3> observable{true, true, true};
   bool degenerate = false;         ///< smallest / largest curvature < slam.degeneracy_ratio
   bool coarse_search = false;      ///< the coarse search ran (Gauss-Newton looked failed)
+  /// The coarse search's best still fitted less than ScanMatcher::kLostScoreRatio of the recent
+  /// matches' mean M_H: every heading was searched too (within twice slam.coarse_translation).
+  bool wide_search = false;
   /// The coarse search found a lower cost elsewhere, but the move there was along a direction the
   /// scan hardly constrains (CoarseSearch::kWhenFailedKeepPrediction): the guess's minimum was kept.
   bool coarse_rejected = false;
@@ -194,8 +197,12 @@ class ScanMatcher {
   [[nodiscard]] Eigen::Vector3d solve(const Linearization& lin, bool& degenerate, Eigen::Vector3d& eigenvalues) const;
   void assess_degeneracy(MatchResult& result);
   MatchResult gauss_newton(const PlanarPose& guess);
-  /// The kCoarseStarts best poses of a grid around the guess, best first.
-  std::vector<PlanarPose> coarse_search(const PlanarPose& guess);
+  /// The kCoarseStarts best poses of a grid around the guess, best first: within `translation`
+  /// [m] in x and y and `rotation` [rad] in yaw.
+  std::vector<PlanarPose> coarse_search(const PlanarPose& guess, double translation, double rotation);
+  /// A match whose coarse search still ends below this fraction of the recent matches' mean M_H
+  /// is lost: searched again over every heading.
+  static constexpr double kLostScoreRatio = 0.5;
   static constexpr std::size_t kCoarseStarts = 3;
 
   Params params_;
