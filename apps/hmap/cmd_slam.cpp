@@ -41,6 +41,7 @@ struct SlamOptions : InputOptions {
   std::string imu;
   std::string imu_topic;
   std::vector<double> imu_rpy;
+  std::string sensor_up;            ///< the sensor's up axis as mounted (-z: upside down)
   std::string out;
   std::string mcap;
   std::string continue_from;        ///< a saved map the scans are localised in and added to
@@ -226,22 +227,52 @@ void run_slam(const SlamOptions& o) {
   // frame is the saved one.
   if (!old && !attitude && (odometry || truth)) slam.start_at_height(slam::attitude_of(odometry ? odometry->front() : truth->front()).z);
   // A depth camera's frame is optical (y down): the first frame's tilt guess is its floor's, found
-  // about −y (a LiDAR's frame is taken as level, its floor found about +z by the first match).
+  // about −y. A LiDAR's frame is taken as level, its floor found about +z by the first match,
+  // unless --sensor-up names how it is mounted (-z: upside down); its floor is then found about that.
   std::string first_tilt;
   const bool optical = !o.sensors.rgbd.empty() || !o.sensors.tum.empty();
-  if (!old && !attitude && optical && first) {
-    const std::optional<SensorFloor> floor = floor_under_sensor(*first, -Eigen::Vector3d::UnitY());
-    if (!floor) {
+  const bool named_up = !o.sensor_up.empty();
+  if (named_up && attitude) {
+    throw Error("--sensor-up: the attitude is given (" +
+                std::string(o.attitude_from.empty() ? "the input's poses" : "--attitude-from") +
+                "); it applies when the attitude is estimated from the scans");
+  }
+  const Eigen::Vector3d prior_up = [&] {
+    if (!named_up) return Eigen::Vector3d(-Eigen::Vector3d::UnitY());
+    try {
+      return parse_up_axis(o.sensor_up);
+    } catch (const Error& e) {
+      throw Error(std::string("--sensor-up: ") + e.what());
+    }
+  }();
+  if ((named_up || (!old && optical)) && !attitude && first) {
+    const std::optional<SensorFloor> floor = floor_under_sensor(*first, prior_up);
+    const char* sensor = optical ? "camera" : "sensor";
+    if (floor) {
+      slam.start_with_up(floor->up_sensor);
+      const slam::Attitude a = slam.first_attitude();
+      first_tilt = format(" First %s levelled by its floor (%zu of %zu points): roll %.1f°, pitch %.1f°, %s %.2f m above it.",
+                          optical ? "frame" : "scan", floor->inliers, floor->points, a.roll * 180.0 / std::numbers::pi,
+                          a.pitch * 180.0 / std::numbers::pi, sensor, floor->sensor_height);
+    } else if (named_up) {
+      slam.start_with_up(prior_up);
+      first_tilt = format(" First scan taken as level about --sensor-up %s (no floor within 34° of it under the %s).",
+                          o.sensor_up.c_str(), sensor);
+    } else {
       throw InputError(src.scans.front().string(), "",
                        "the first depth frame shows no floor within 34° of the camera's -y axis, so its tilt is not "
                        "known: give the attitude (--attitude-from POSES, or drop --attitude-from scans to use the "
-                       "folder's poses)");
+                       "folder's poses), or the camera's up axis (--sensor-up)");
     }
-    slam.start_with_up(floor->up_sensor);
-    const slam::Attitude a = slam.first_attitude();
-    first_tilt = format(" First frame levelled by its floor (%zu of %zu points): roll %.1f°, pitch %.1f°, camera %.2f m above it.",
-                        floor->inliers, floor->points, a.roll * 180.0 / std::numbers::pi, a.pitch * 180.0 / std::numbers::pi,
-                        floor->sensor_height);
+  } else if (!named_up && !optical && !old && !attitude && first) {
+    // No floor under a LiDAR taken as mounted upright, but one above it: the ground of a sensor
+    // mounted upside down would make the map upside down. Said, not guessed: indoors a ceiling
+    // looks the same.
+    if (const auto above = floor_only_above_sensor(*first, Eigen::Vector3d::UnitZ())) {
+      first_tilt = format(" The first scan shows no floor under the sensor but one %.2f m above it (%zu of %zu points): "
+                          "if the sensor is mounted upside down, give --sensor-up -z.",
+                          above->sensor_height, above->inliers, above->points);
+    }
   }
   std::optional<slam::MapAlignResult> relocalised;
   double relocalise_ms = 0.0;  // the first scan of a continued map: its search and match
@@ -538,6 +569,10 @@ void add_slam_command(CLI::App& app) {
                   "IMU mounting R_sensor_imu = Rz(yaw)Ry(pitch)Rx(roll) as ROLL PITCH YAW [rad] (slam.imu_roll, "
                   "imu_pitch, imu_yaw; default identity)")
       ->expected(3);
+  cmd->add_option("--sensor-up", opts->sensor_up,
+                  "The sensor's up axis as mounted (x, y, z with a sign): -z for a LiDAR mounted upside down, -y for "
+                  "a camera's optical frame (the default for RGB-D). The first scan's floor is looked for about it; "
+                  "when the attitude is estimated from the scans");
   cmd->add_option("--out,-o", opts->out, "Output folder")->required();
   cmd->add_option("--mcap", opts->mcap,
                   "Also write the map and the estimated poses as an MCAP recording for Foxglove (OUT.mcap), as hmap "

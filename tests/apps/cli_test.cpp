@@ -879,6 +879,55 @@ TEST_F(CliTest, MapContinuedFromItsFileEqualsOneRun) {
 
 
 // hmap slam --continue (issue 22): a second session localised in the first one's saved map.
+// A LiDAR mounted upside down (the town's VLP-16 scans with y and z negated: 180° about x). Taken
+// as upright, the summary says the ground lies above the sensor and names --sensor-up; with
+// --sensor-up -z each pose is the upright run's, mirrored back, within 3 cm and 0.5°. A bad axis,
+// or the flag with the attitude given, is one line and exit 2.
+TEST_F(CliTest, SlamOnALidarMountedUpsideDown) {
+  ASSERT_EQ(run("simulate --scene city --sensor vlp16 --frames 6 --stride 3 --out " + path("up")).code, 0);
+  std::filesystem::create_directories(dir_ / "down" / "velodyne");
+  for (int k = 0; k < 6; ++k) {
+    const std::string name = format("%06d.bin", k);
+    std::ifstream in(dir_ / "up" / "velodyne" / name, std::ios::binary);
+    std::vector<float> v(std::filesystem::file_size(dir_ / "up" / "velodyne" / name) / sizeof(float));
+    in.read(reinterpret_cast<char*>(v.data()), static_cast<std::streamsize>(v.size() * sizeof(float)));
+    for (std::size_t i = 0; i + 3 < v.size(); i += 4) {  // x y z intensity
+      v[i + 1] = -v[i + 1];
+      v[i + 2] = -v[i + 2];
+    }
+    std::ofstream out(dir_ / "down" / "velodyne" / name, std::ios::binary);
+    out.write(reinterpret_cast<const char*>(v.data()), static_cast<std::streamsize>(v.size() * sizeof(float)));
+  }
+  const CmdResult upright = run("slam --kitti " + path("up") + " --out " + path("s_up"));
+  ASSERT_EQ(upright.code, 0) << upright.out;
+  EXPECT_EQ(upright.out.find("--sensor-up"), std::string::npos) << upright.out;
+  const CmdResult taken_upright = run("slam --kitti " + path("down") + " --out " + path("s_guess"));
+  ASSERT_EQ(taken_upright.code, 0) << taken_upright.out;
+  EXPECT_NE(taken_upright.out.find("no floor under the sensor but one"), std::string::npos) << taken_upright.out;
+  EXPECT_NE(taken_upright.out.find("give --sensor-up -z"), std::string::npos) << taken_upright.out;
+  const CmdResult told = run("slam --kitti " + path("down") + " --sensor-up -z --out " + path("s_down"));
+  ASSERT_EQ(told.code, 0) << told.out;
+  EXPECT_NE(told.out.find("First scan levelled by its floor"), std::string::npos) << told.out;
+  const PoseList a = read_poses(dir_ / "s_up" / "poses.txt");
+  const PoseList b = read_poses(dir_ / "s_down" / "poses.txt");
+  ASSERT_EQ(a.size(), 6U);
+  ASSERT_EQ(b.size(), 6U);
+  Pose flip = Pose::Identity();
+  flip.linear() = Eigen::Vector3d(1.0, -1.0, -1.0).asDiagonal();  // the upright sensor's frame in the flipped one's
+  for (std::size_t k = 0; k < 6; ++k) {
+    const Pose d = a[k].inverse() * (b[k] * flip);
+    EXPECT_LT(d.translation().norm(), 0.03) << k;
+    EXPECT_LT(Eigen::AngleAxisd(d.linear()).angle(), 0.5 * std::numbers::pi / 180.0) << k;
+  }
+  for (const std::string& extra : {std::string(" --sensor-up q"), " --sensor-up -z --attitude-from " + path("up/poses.txt")}) {
+    const CmdResult r = run("slam --kitti " + path("down") + extra + " --out " + path("bad"));
+    EXPECT_EQ(r.code, 2) << extra;
+    EXPECT_EQ(lines(r.out), 1U) << r.out;
+    EXPECT_NE(r.out.find("--sensor-up"), std::string::npos) << r.out;
+    EXPECT_FALSE(std::filesystem::exists(dir_ / "bad")) << extra;
+  }
+}
+
 TEST_F(CliTest, SlamContinuesASavedMapInItsFrame) {
   ASSERT_EQ(run("simulate --scene parking --sensor vlp16 --frames 8 --seed 4 --out " + path("seq")).code, 0);
   const PoseList truth = read_poses(dir_ / "seq" / "poses.txt");
