@@ -264,15 +264,6 @@ void run_slam(const SlamOptions& o) {
                        "known: give the attitude (--attitude-from POSES, or drop --attitude-from scans to use the "
                        "folder's poses), or the camera's up axis (--sensor-up)");
     }
-  } else if (!named_up && !optical && !old && !attitude && first) {
-    // No floor under a LiDAR taken as mounted upright, but one above it: the ground of a sensor
-    // mounted upside down would make the map upside down. Said, not guessed: indoors a ceiling
-    // looks the same.
-    if (const auto above = floor_only_above_sensor(*first, Eigen::Vector3d::UnitZ())) {
-      first_tilt = format(" The first scan shows no floor under the sensor but one %.2f m above it (%zu of %zu points): "
-                          "if the sensor is mounted upside down, give --sensor-up -z.",
-                          above->sensor_height, above->inliers, above->points);
-    }
   }
   std::optional<slam::MapAlignResult> relocalised;
   double relocalise_ms = 0.0;  // the first scan of a continued map: its search and match

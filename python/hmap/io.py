@@ -9,7 +9,6 @@ open_kitti = _io.open_kitti
 write_ply = _io.write_ply
 write_points_ply = _io.write_points_ply
 floor_under_sensor = _io.floor_under_sensor
-floor_only_above_sensor = _io.floor_only_above_sensor
 write_pgm = _io.write_pgm
 write_bt = _io.write_bt
 write_png = _io.write_png

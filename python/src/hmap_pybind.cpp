@@ -1255,29 +1255,6 @@ PYBIND11_MODULE(_hmap, m) {
          "normal, unit, toward the sensor), 'sensor_height' [m], 'inliers', 'points'}, or None when no plane within "
          "34° of prior_up lies within 3 m below the sensor. prior_up: -y (the default) for a depth camera's "
          "optical frame, +z for a LiDAR.");
-  io.def("floor_only_above_sensor", [](const py::handle& points, const std::array<double, 3>& up, std::size_t max_points) -> py::object {
-    const py::array arr = checked_points(points, "points");
-    PointCloud storage;
-    const std::span<const Point3f> pts = points_of(arr, storage, NonFinite::kDrop, "points");
-    const Eigen::Vector3d u(up[0], up[1], up[2]);
-    if (!u.allFinite() || !(u.norm() > 0.0)) throw py::value_error("up must be finite and non-zero");
-    std::optional<SensorFloor> floor;
-    {
-      py::gil_scoped_release release;
-      floor = floor_only_above_sensor(pts, u, max_points);
-    }
-    if (!floor) return py::none();
-    py::dict d;
-    d["up"] = py::make_tuple(floor->up_sensor.x(), floor->up_sensor.y(), floor->up_sensor.z());
-    d["sensor_height"] = floor->sensor_height;
-    d["inliers"] = floor->inliers;
-    d["points"] = floor->points;
-    return d;
-  }, py::arg("points"), py::arg("up") = std::array<double, 3>{0.0, 0.0, 1.0}, py::arg("max_points") = 20000,
-         "For a sensor taken as mounted with `up` up (+z, a LiDAR): the floor above it when there is none under it "
-         "(a LiDAR mounted upside down; indoors a ceiling looks the same), as floor_under_sensor's dict with 'up' "
-         "about -up; None when a floor lies under it, or neither way. Reads at most max_points of the scan, "
-         "evenly (`hmap slam` says it and names --sensor-up).");
   io.def("write_points_ply", [](const std::filesystem::path& path, const py::handle& points) {
     const py::array arr = checked_points(points, "points");
     PointCloud storage;

@@ -329,21 +329,3 @@ def test_slam_on_a_bag_with_its_imu_gives_the_poses_of_hmap_slam(tmp_path, bags)
     with pytest.raises(hmap.InputError, match="imu_two.bag"):
         hmap.io.read_bag_imu(bags / "imu_two.bag")  # two Imu topics, none named
 
-
-def test_floor_only_above_a_sensor_mounted_upside_down():
-    """A LiDAR 1.7 m above flat ground: upright, nothing to say; upside down (y, z negated), the
-    ground is found 1.7 m above it, its up about -z; a bad up vector is refused."""
-    rng = np.random.default_rng(3)
-    ground = np.column_stack([rng.uniform(-15, 15, 20000), rng.uniform(-15, 15, 20000),
-                              -1.7 + rng.normal(0, 0.01, 20000)]).astype(np.float32)
-    assert hmap.io.floor_only_above_sensor(ground) is None
-    flipped = ground * np.array([1, -1, -1], dtype=np.float32)
-    above = hmap.io.floor_only_above_sensor(flipped)
-    assert above is not None
-    assert above["up"][2] < -0.999
-    assert abs(above["sensor_height"] - 1.7) < 0.01
-    assert above["points"] == 20000
-    assert hmap.io.floor_only_above_sensor(flipped, max_points=1000)["points"] == 1000
-    assert hmap.io.floor_only_above_sensor(flipped, up=(0.0, 0.0, -1.0)) is None
-    with pytest.raises(ValueError):
-        hmap.io.floor_only_above_sensor(flipped, up=(0.0, 0.0, 0.0))

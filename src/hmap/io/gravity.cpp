@@ -164,18 +164,4 @@ std::optional<SensorFloor> floor_under_sensor(std::span<const Point3f> points_se
   return out;
 }
 
-std::optional<SensorFloor> floor_only_above_sensor(std::span<const Point3f> points_sensor, const Eigen::Vector3d& up_sensor,
-                                                   std::size_t max_points, const FloorParams& params) {
-  std::vector<Point3f> thinned;
-  std::span<const Point3f> points = points_sensor;
-  if (max_points > 0 && points_sensor.size() > max_points) {
-    const std::size_t stride = (points_sensor.size() + max_points - 1) / max_points;
-    thinned.reserve(points_sensor.size() / stride + 1);
-    for (std::size_t k = 0; k < points_sensor.size(); k += stride) thinned.push_back(points_sensor[k]);
-    points = thinned;
-  }
-  if (floor_under_sensor(points, up_sensor, params)) return std::nullopt;
-  return floor_under_sensor(points, -up_sensor, params);
-}
-
 }  // namespace hmap

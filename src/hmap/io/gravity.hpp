@@ -78,14 +78,5 @@ struct SensorFloor {
                                                             const Eigen::Vector3d& prior_up_sensor,
                                                             const FloorParams& params = {});
 
-/// A sensor taken as mounted with `up_sensor` up that may be mounted the other way: no floor under
-/// it about `up_sensor`, but one about −up_sensor (returned: its up is then −up_sensor's side, its
-/// height how far the plane is from the sensor). std::nullopt when a floor lies under the sensor,
-/// or neither way. Outdoors that is a LiDAR mounted upside down; indoors a ceiling looks the same,
-/// so callers say it rather than act on it. Reads at most `max_points` of the scan, evenly.
-[[nodiscard]] std::optional<SensorFloor> floor_only_above_sensor(std::span<const Point3f> points_sensor,
-                                                                 const Eigen::Vector3d& up_sensor,
-                                                                 std::size_t max_points = 20000,
-                                                                 const FloorParams& params = {});
 
 }  // namespace hmap
