@@ -78,5 +78,4 @@ struct SensorFloor {
                                                             const Eigen::Vector3d& prior_up_sensor,
                                                             const FloorParams& params = {});
 
-
 }  // namespace hmap

@@ -562,7 +562,9 @@ MatchResult ScanMatcher::match(const ScanHVoxels& scan_level, const HMap& map, c
     const bool lost = reference_score_ > 0.0 && result.score < kLostScoreRatio * reference_score_;
     if (lost) {
       const MatchResult searched = result;
-      search_from(2.0 * params_.slam.coarse_translation, std::numbers::pi);
+      // Within the grid's kCoarseMaxSteps of two cells, however wide slam.coarse_translation is.
+      const double wide = std::min(2.0 * params_.slam.coarse_translation, kCoarseMaxSteps * 2.0 * params_.map.cell_size);
+      search_from(wide, std::numbers::pi);
       // Taken only where it fits as the recent matches did: a lower cost among thousands of poses
       // that still fits badly is the grain of eq. (5) (24 HVoxels after the parking's blind
       // stretch: 1.11 -> 1.78 % RPE on one seed).
