@@ -222,10 +222,17 @@ TEST(ScanMatcher, ALostMatchSearchesEveryHeading) {
   const PlanarPose guess{-0.1, -0.1, 0.0};
   // No match before it: nothing to compare the fit with, so nothing is taken for lost.
   ScanMatcher fresh(p);
+  fresh.search_when_lost(true);
   const MatchResult blind = fresh.match(s.scan_level, s.map, guess);
   EXPECT_FALSE(blind.wide_search);
   EXPECT_FALSE(recovered(blind, truth));
+  ScanMatcher off(p);  // not asked to search when lost (a map registration's matcher)
+  (void)off.match(s.scan_level, s.map, truth);
+  const MatchResult stays = off.match(s.scan_level, s.map, guess);
+  EXPECT_FALSE(stays.wide_search);
+  EXPECT_FALSE(recovered(stays, truth));
   ScanMatcher matcher(p);
+  matcher.search_when_lost(true);  // as HmapSlam's
   const MatchResult good = matcher.match(s.scan_level, s.map, truth);  // the reference fit
   EXPECT_FALSE(good.wide_search);
   const MatchResult lost = matcher.match(s.scan_level, s.map, guess);

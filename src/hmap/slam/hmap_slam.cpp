@@ -61,6 +61,7 @@ HmapSlam::HmapSlam(const Params& params)
       wall_scan_(params.map.cell_size, params.slam.wall_band_height) {
   level_hvoxelizer_.keep_centroids(params_.slam.hvoxel_centroids >= 1 || params_.slam.wall_tilt_drift > 0.0);
   level_hvoxelizer_.keep_wall_lean(params_.slam.wall_tilt_drift > 0.0);
+  matcher_.search_when_lost(true);
 }
 
 namespace {
@@ -90,6 +91,7 @@ HmapSlam::HmapSlam(const Params& params, HMap map, const ContinueOptions& where,
       map_as_given_(false) {
   level_hvoxelizer_.keep_centroids(params_.slam.hvoxel_centroids >= 1 || params_.slam.wall_tilt_drift > 0.0);
   level_hvoxelizer_.keep_wall_lean(params_.slam.wall_tilt_drift > 0.0);
+  matcher_.search_when_lost(true);
   const PlanarPose& g = where.guess;
   if (!(std::isfinite(g.x) && std::isfinite(g.y) && std::isfinite(g.yaw))) {
     throw Error("continuing a map: the first scan's guess must be finite");

@@ -559,7 +559,7 @@ MatchResult ScanMatcher::match(const ScanHVoxels& scan_level, const HMap& map, c
     // matches did. The sensor moved farther than the prediction's window (a jerk, a dropped
     // scan: balm_os0 at every third scan turns up to 81 degrees between them), so every heading
     // is searched, within twice the translation.
-    const bool lost = reference_score_ > 0.0 && result.score < kLostScoreRatio * reference_score_;
+    const bool lost = lost_search_ && reference_score_ > 0.0 && result.score < kLostScoreRatio * reference_score_;
     if (lost) {
       const MatchResult searched = result;
       // Within the grid's kCoarseMaxSteps of two cells, however wide slam.coarse_translation is.

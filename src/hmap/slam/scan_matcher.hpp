@@ -145,6 +145,12 @@ class ScanMatcher {
                                   ThinFallback thin_fallback = ThinFallback::kNone,
                                   const std::optional<MotionPrior>& prior = std::nullopt);
 
+  /// Whether a match that still fits the map less than kLostScoreRatio of the recent matches'
+  /// mean M_H after its coarse search searches again over every heading (MatchResult::wide_search).
+  /// Off by default: a tracker (HmapSlam) turns it on; a matcher scoring poses it chose itself (a
+  /// map registration's yaw sectors, whose wrong sectors fit badly by design) keeps it off.
+  void search_when_lost(bool on) { lost_search_ = on; }
+
   /// Where in its cell the map's surface lies (slam.hvoxel_centroids 2), for the matches that
   /// follow; nullptr (the default): at the cells' centres. A scan HVoxel that lands in a cell with a
   /// centroid is looked up that far the other way, so that the map's value sits at its centroid
@@ -215,6 +221,7 @@ class ScanMatcher {
   std::optional<MotionPrior> prior_;  // of the match under way
   double prior_weight_ = 0.0;         // s² of MotionPrior for it
   bool yaw_only_ = false;  // the match under way moves the yaw alone (ThinFallback::kHeading)
+  bool lost_search_ = false;  // search_when_lost
   const CellCentroids* map_centroids_ = nullptr;   // set_map_centroids
   const CellCentroids* read_centroids_ = nullptr;  // what the match under way reads: map_centroids_, none in a thin fallback
   CellCentroids::View centroid_view_;              // read_centroids_' tiles in view_'s window
