@@ -328,4 +328,3 @@ def test_slam_on_a_bag_with_its_imu_gives_the_poses_of_hmap_slam(tmp_path, bags)
     assert (tmp_path / "py.hmap").read_bytes() == (tmp_path / "O" / "map.hmap").read_bytes()
     with pytest.raises(hmap.InputError, match="imu_two.bag"):
         hmap.io.read_bag_imu(bags / "imu_two.bag")  # two Imu topics, none named
-
