@@ -8,6 +8,7 @@
 #include <numbers>
 #include <utility>
 
+#include "hmap/core/format.hpp"
 #include "hmap/core/params.hpp"
 #include "io/io_test_util.hpp"
 
@@ -129,9 +130,19 @@ TEST(ResolveParamsForScanTest, ALidarInARoomTakesTheRoomCellAndKeepsItsReach) {
   const ScanParams chosen = resolve_params_for_scan(sources, lidar_in_a_room());
   EXPECT_EQ(chosen.preset, "room");
   EXPECT_EQ(chosen.params.map.cell_size, 0.1);
-  EXPECT_EQ(chosen.params.map.max_range, 25.0);  // the LiDAR's, not the room preset's 10 m
+  // The LiDAR's, not the room preset's 10 m: its 2° rings lie map.ring_gap_max (3 m) apart on a
+  // wall at 3 / slope, 3 / 0.0384 = 78.1 m (the spacing is read in 0.05° bins: 77-78 m).
+  const double slope = chosen.params.map.ring_gap_slope;
+  EXPECT_EQ(chosen.params.map.max_range, std::floor(3.0 / slope));
+  EXPECT_GE(chosen.params.map.max_range, 77.0);
+  EXPECT_LE(chosen.params.map.max_range, 78.0);
   ASSERT_FALSE(chosen.adapted.empty());
   EXPECT_EQ(chosen.adapted[0].name, "map.max_range");
+  EXPECT_NE(chosen.adapted[0].reason.find(format("a LiDAR (16 rings 2.00 deg apart): its rings lie map.ring_gap_max "
+                                                 "= 3 m apart on a wall %.0f m away",
+                                                 chosen.params.map.max_range)),
+            std::string::npos)
+      << chosen.adapted[0].reason;
   // 2° rings are 0.35 m apart at the room's 10 m: the preset's 0.4 m gap stays there, and grows
   // beyond it by 1.1 · tan 2° per metre.
   EXPECT_EQ(chosen.params.map.point_distance_threshold, 0.4);
@@ -150,8 +161,15 @@ TEST(ResolveParamsForScanTest, ALidarInARoomTakesTheRoomCellAndKeepsItsReach) {
     const ScanParams one_gap = resolve_params_for_scan(gap, lidar_in_a_room());
     EXPECT_EQ(one_gap.params.map.ring_gap_slope, 0.0);
     EXPECT_EQ(one_gap.params.map.point_distance_threshold, 0.4);
-    EXPECT_EQ(one_gap.params.map.max_range, 25.0);  // the range is still the LiDAR's
+    EXPECT_EQ(one_gap.params.map.max_range, chosen.params.map.max_range);  // the range is still the LiDAR's
   }
+  // A smaller most gap the user names brings the range in with it (1.5 / 0.0384 = 39 m), not under
+  // the outdoor preset's 25 m: 0.5 / 0.0384 = 13 m.
+  ParamSources most = sources;
+  most.overrides = {"map.ring_gap_max=1.5"};
+  EXPECT_EQ(resolve_params_for_scan(most, lidar_in_a_room()).params.map.max_range, std::floor(1.5 / slope));
+  most.overrides = {"map.ring_gap_max=0.5"};
+  EXPECT_EQ(resolve_params_for_scan(most, lidar_in_a_room()).params.map.max_range, 25.0);
   // A range the user names stands, by flag or by --set, even at the preset's value; so does a named
   // preset's.
   ParamSources flag = sources;

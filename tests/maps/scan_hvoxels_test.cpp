@@ -318,12 +318,13 @@ TEST(ScanHVoxelsTest, ThresholdBoundary) {
   EXPECT_FLOAT_EQ(v[1].z_min, 0.501F);
 }
 
-// map.ring_gap_slope by hand: the gap of a cell is max(threshold, min(slope · d, 1 m)), d its
+// map.ring_gap_slope by hand: the gap of a cell is max(threshold, min(slope · d, most)), d its
 // centre's distance from the sensor plus half its diagonal. Heights 0, 0.7, 1.4 (gaps 0.7):
 // - cell (20, 0): d = hypot(20.5, 0.5) + 0.7071 = 21.2132; slope 0.04 -> gap 0.8485: one HVoxel;
 // - cell (4, 0): d = hypot(4.5, 0.5) + 0.7071 = 5.2348 -> 0.2094, the threshold 0.5: three;
 // - the sensor moved to x = 16: cell (20, 0) is then as near, three; slope 0 anywhere: three;
-// - slope 0.1 at cell (20, 0): 2.12 m, held to 1 m: heights 0 and 1.05 one above the other split.
+// - slope 0.1 at cell (20, 0): 2.1213 m, within the default most (map.ring_gap_max, 3 m): heights
+//   0 and 2.1 are one HVoxel, 0 and 2.15 two; held to a most of 1 m, 0 and 1.05 split.
 TEST(ScanHVoxelsTest, RingGapGrowsWithTheCellsDistance) {
   MapParams p = unit_params();
   p.max_range = 30.0;
@@ -355,9 +356,13 @@ TEST(ScanHVoxelsTest, RingGapGrowsWithTheCellsDistance) {
   EXPECT_EQ(count(fixed, column(20.5F, {0.0F, 0.7F, 1.4F}), 0.0), 3U);
   MapParams steep = p;
   steep.ring_gap_slope = 0.1;
+  EXPECT_DOUBLE_EQ(steep.ring_gap_max, 3.0);
+  EXPECT_EQ(count(steep, column(20.5F, {0.0F, 2.1F}), 0.0), 1U);
+  EXPECT_EQ(count(steep, column(20.5F, {0.0F, 2.15F}), 0.0), 2U);
+  steep.ring_gap_max = 1.0;
   EXPECT_EQ(count(steep, column(20.5F, {0.0F, 0.99F}), 0.0), 1U);
   EXPECT_EQ(count(steep, column(20.5F, {0.0F, 1.05F}), 0.0), 2U);
-  // A threshold above 1 m stays the gap.
+  // A threshold above the most stays the gap.
   steep.point_distance_threshold = 1.5;
   EXPECT_EQ(count(steep, column(20.5F, {0.0F, 1.45F}), 0.0), 1U);
   // The same HVoxels whatever the order of the heights (the one-cluster shortcut and the sort).

@@ -34,38 +34,64 @@ PointCloud scan_of(const sim::SpinningLidarParams& lidar) {
 TEST(SensorDefaults, Vlp16RingsWidenTheHeightGapWithRange) {
   // 16 rings 2° apart: neighbouring rings hit a wall d · tan 2° apart, 0.87 m at the outdoor
   // preset's 25 m. The gap grows with the cell's distance by 1.1 · tan 2° = 0.0384 per metre; the
-  // paper's 0.4 m stays where that is less (within 10.4 m).
+  // paper's 0.4 m stays where that is less (within 10.4 m). The range reaches as far as the gap
+  // stays within map.ring_gap_max, 3 m: 3 / 0.0384 = 78.1 m (77-78 m for the spacing as read).
   const SensorProfile s = profile_scan(scan_of(sim::SpinningLidarParams::vlp16()));
   EXPECT_GE(s.rings, 12);
   EXPECT_LE(s.rings, 16);
   EXPECT_NEAR(s.ring_spacing, 2.0 * kDeg, 0.05 * kDeg);
   Params p = outdoor_preset();
   const auto chosen = adapt_to_sensor(p, outdoor_preset(), s);
-  ASSERT_EQ(chosen.size(), 1U);
-  EXPECT_EQ(chosen[0].name, "map.ring_gap_slope");
+  ASSERT_EQ(chosen.size(), 2U);
+  EXPECT_EQ(chosen[0].name, "map.max_range");
+  EXPECT_EQ(chosen[1].name, "map.ring_gap_slope");
   EXPECT_NEAR(p.map.ring_gap_slope, 1.1 * std::tan(2.0 * kDeg), 0.001);
-  EXPECT_NE(chosen[0].reason.find("the height gap is 0.40 m near and 0.96 m at 25 m"), std::string::npos) << chosen[0].reason;
+  EXPECT_DOUBLE_EQ(p.map.max_range, std::floor(3.0 / p.map.ring_gap_slope));
+  EXPECT_GE(p.map.max_range, 77.0);
+  EXPECT_LE(p.map.max_range, 78.0);
+  EXPECT_NE(chosen[0].reason.find(format("its rings lie map.ring_gap_max = 3 m apart on a wall %.0f m away",
+                                         p.map.max_range)),
+            std::string::npos)
+      << chosen[0].reason;
+  EXPECT_NE(chosen[1].reason.find(format("the height gap is 0.40 m near and 3.00 m at %.0f m (3 m at most)",
+                                         p.map.max_range)),
+            std::string::npos)
+      << chosen[1].reason;
   EXPECT_DOUBLE_EQ(p.map.point_distance_threshold, outdoor_preset().map.point_distance_threshold);
-  // A gap or a slope the user set is theirs.
+  // A range the user named stands (the gap is still chosen, and said at that range).
+  Params named = outdoor_preset();
+  const auto kept = adapt_to_sensor(named, outdoor_preset(), s, true);
+  ASSERT_EQ(kept.size(), 1U);
+  EXPECT_DOUBLE_EQ(named.map.max_range, 25.0);
+  EXPECT_NE(kept[0].reason.find("the height gap is 0.40 m near and 0.96 m at 25 m"), std::string::npos) << kept[0].reason;
+  // A gap or a slope the user set is theirs (the range is still the sensor's).
   Params gap = outdoor_preset();
   gap.map.point_distance_threshold = 0.6;
-  EXPECT_TRUE(adapt_to_sensor(gap, outdoor_preset(), s).empty());
+  const auto range_only = adapt_to_sensor(gap, outdoor_preset(), s);
+  ASSERT_EQ(range_only.size(), 1U);
+  EXPECT_EQ(range_only[0].name, "map.max_range");
+  EXPECT_DOUBLE_EQ(gap.map.max_range, p.map.max_range);
   EXPECT_DOUBLE_EQ(gap.map.ring_gap_slope, 0.0);
   Params slope = outdoor_preset();
   slope.map.ring_gap_slope = 0.02;
-  EXPECT_TRUE(adapt_to_sensor(slope, outdoor_preset(), s).empty());
+  ASSERT_EQ(adapt_to_sensor(slope, outdoor_preset(), s).size(), 1U);
   EXPECT_DOUBLE_EQ(slope.map.ring_gap_slope, 0.02);
 }
 
 TEST(SensorDefaults, Hdl64KeepsThePapersGapWithinItsRange) {
   // Rings 1/3°–1/2° apart: 0.15–0.22 m at 25 m, under the paper's 0.4 m, which stays the gap to
-  // 50 m and more.
+  // 50 m and more. 3 m apart only beyond 300 m: the range is the 100 m spinning LiDARs reach.
   const SensorProfile s = profile_scan(scan_of(sim::SpinningLidarParams::hdl64e()));
   EXPECT_GE(s.rings, 30);
   EXPECT_GT(s.ring_spacing, 0.3 * kDeg);
   EXPECT_LT(s.ring_spacing, 0.55 * kDeg);
   Params p = outdoor_preset();
-  (void)adapt_to_sensor(p, outdoor_preset(), s);
+  const auto chosen = adapt_to_sensor(p, outdoor_preset(), s);
+  ASSERT_EQ(chosen.size(), 2U);
+  EXPECT_DOUBLE_EQ(p.map.max_range, 100.0);
+  EXPECT_NE(chosen[0].reason.find("apart on a wall only beyond the 100 m the common spinning LiDARs reach"),
+            std::string::npos)
+      << chosen[0].reason;
   EXPECT_DOUBLE_EQ(p.map.point_distance_threshold, outdoor_preset().map.point_distance_threshold);
   EXPECT_GT(p.map.ring_gap_slope * 50.0, 0.25);
   EXPECT_LT(p.map.ring_gap_slope * 50.0, outdoor_preset().map.point_distance_threshold);
@@ -79,6 +105,8 @@ TEST(SensorDefaults, Os0SixtyFourRings) {
   (void)adapt_to_sensor(p, outdoor_preset(), s);
   EXPECT_NEAR(p.map.ring_gap_slope * 25.0, 0.69, 0.02);
   EXPECT_DOUBLE_EQ(p.map.point_distance_threshold, outdoor_preset().map.point_distance_threshold);
+  // 3 m apart at 3 / 0.0275 = 109 m: held to 100 m.
+  EXPECT_DOUBLE_EQ(p.map.max_range, 100.0);
 }
 
 TEST(SensorDefaults, NoRingsNoChange) {
@@ -122,8 +150,8 @@ TEST(SensorDefaults, ALidarInAClosedRoomIsFoundByItsRingsNearBy) {
   EXPECT_EQ(preset_for_sensor(s), "room");
   Params p = room_preset();
   (void)adapt_to_sensor(p, room_preset(), s);
-  EXPECT_DOUBLE_EQ(p.map.max_range, 25.0);
   EXPECT_GT(p.map.ring_gap_slope, 0.0);
+  EXPECT_DOUBLE_EQ(p.map.max_range, std::floor(3.0 / p.map.ring_gap_slope));  // its own reach, 77-78 m
   // The same room seen through a 70 deg depth camera: no rings read near by, the indoor preset.
   sim::DepthCamera kinect(sim::DepthCameraParams::kinect_one());
   const SensorProfile k = profile_scan(kinect.scan(room, T, 0.0).points_sensor);
@@ -189,16 +217,17 @@ TEST(SensorDefaults, PresetFromTheSensorsReach) {
     EXPECT_LT(l.range_p95, 10.0);
     EXPECT_EQ(preset_for_sensor(l, &why), "room");
     EXPECT_NE(why.find("beyond the indoor preset's 5 m range, inside the room preset's 10 m"), std::string::npos) << why;
-    // A LiDAR reaches beyond the room: the outdoor preset's 25 m; the height gap is the preset's
-    // 0.4 m near, and grows with the rings' spread beyond.
+    // A LiDAR reaches beyond the room: as far as its rings lie within 3 m of each other on a wall
+    // (100 m at most); the height gap is the preset's 0.4 m near, and grows with the rings' spread beyond.
     Params p = room_preset();
     const auto chosen = adapt_to_sensor(p, room_preset(), l);
     ASSERT_EQ(chosen.size(), 2U);
     EXPECT_EQ(chosen[0].name, "map.max_range");
-    EXPECT_DOUBLE_EQ(p.map.max_range, 25.0);
-    EXPECT_NE(chosen[0].reason.find("reaches beyond the room"), std::string::npos) << chosen[0].reason;
     EXPECT_EQ(chosen[1].name, "map.ring_gap_slope");
     EXPECT_GT(p.map.ring_gap_slope, 0.0);
+    EXPECT_DOUBLE_EQ(p.map.max_range, std::min(100.0, std::floor(3.0 / p.map.ring_gap_slope)));
+    EXPECT_GE(p.map.max_range, 77.0);
+    EXPECT_NE(chosen[0].reason.find("apart on a wall"), std::string::npos) << chosen[0].reason;
     EXPECT_DOUBLE_EQ(p.map.point_distance_threshold, 0.4);
     // Named by the user, the range stands, even at the preset's value.
     Params named = room_preset();
@@ -216,8 +245,10 @@ TEST(SensorDefaults, PresetFromTheSensorsReach) {
     Params fine = room_preset();
     fine.map.cell_size = 0.01;
     Params fine_preset = fine;
-    (void)adapt_to_sensor(fine, fine_preset, small);
+    const auto held = adapt_to_sensor(fine, fine_preset, small);
     EXPECT_DOUBLE_EQ(fine.map.max_range, 20.48);
+    ASSERT_FALSE(held.empty());
+    EXPECT_NE(held[0].reason.find("(the scan window's 2048 cells)"), std::string::npos) << held[0].reason;
     EXPECT_NO_THROW(validate(fine));
   }
   EXPECT_EQ(preset_for_sensor(profile_scan(PointCloud{}), &why), "outdoor");

@@ -106,9 +106,13 @@ std::vector<ParamRef> param_refs(Params& p) {
   r.push_back(ref("map.point_distance_threshold", "m", "z gap that splits a height cluster (Alg. 2)",
                   m.point_distance_threshold, closed(0.0, 100.0)));
   r.push_back(ref("map.ring_gap_slope", "m/m",
-                  "the z gap grows by this per metre of a cell's distance from the sensor (at most 1 m): "
-                  "a spinning LiDAR's rings on a far wall; 0 = the fixed gap",
+                  "the z gap grows by this per metre of a cell's distance from the sensor (at most "
+                  "map.ring_gap_max): a spinning LiDAR's rings on a far wall; 0 = the fixed gap",
                   m.ring_gap_slope, closed(0.0, 1.0)));
+  r.push_back(ref("map.ring_gap_max", "m",
+                  "the most map.ring_gap_slope widens the z gap to (the threshold itself may be more); "
+                  "a LiDAR's default range is where its rings lie this far apart on a wall",
+                  m.ring_gap_max, closed(0.0, 100.0)));
   r.push_back(ref("map.min_range", "m", "points closer to the sensor are dropped", m.min_range, closed(0.0, 1000.0)));
   r.push_back(ref("map.max_range", "m", "points farther from the sensor are dropped", m.max_range,
                   above(0.0, 10000.0)));

@@ -25,6 +25,8 @@ struct MapParams {
   double ring_gap_slope = 0.0;             ///< [m/m] the gap grows by this per metre of a cell's distance
                                            ///< from the sensor (a spinning LiDAR's rings on a wall spread
                                            ///< with range); 0: point_distance_threshold everywhere
+  double ring_gap_max = 3.0;               ///< [m] the most ring_gap_slope widens the gap to (a storey: a
+                                           ///< wall two rings that far apart hit stays one HVoxel)
   double min_range = 1.2;                  ///< [m] points closer to the sensor are dropped
   double max_range = 25.0;                 ///< [m] points farther from the sensor are dropped
   double density_gain = 1.0;               ///< K_m, eq. (1) amplitude gain [-]

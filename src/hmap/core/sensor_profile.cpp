@@ -136,38 +136,61 @@ std::string preset_for_sensor(const SensorProfile& sensor, std::string* reason) 
 std::vector<ChosenDefault> adapt_to_sensor(Params& p, const Params& preset_params, const SensorProfile& sensor,
                                            bool max_range_named, bool gap_named) {
   std::vector<ChosenDefault> chosen;
-  // The first scan tells how large the place is where the recording starts, not how far the
-  // sensor reaches: a LiDAR that starts in a room sees the hall or the street beyond it later.
-  // With the room preset's 10 m it lost the simulated hall beyond a small room (docs/SLAM.md,
-  // "Session 33"). A LiDAR keeps the outdoor preset's range, within the scan window's 2048 cells.
+  // Neighbouring rings hit a wall at a horizontal distance d about d · tan(spacing) apart in
+  // height (more by 1/cos² of the elevation: 7 % at a VLP-16's 15 deg; the rings that reach a
+  // far wall are the near-horizontal ones), and by a margin for uneven rings.
+  constexpr double kMargin = 1.1;
+  const double slope =
+      sensor.rings > 0 ? std::round(kMargin * std::tan(sensor.ring_spacing) * 1e4) / 1e4 : 0.0;
+  // A LiDAR's range is its own, not its first scan's: that scan tells how large the place is
+  // where the recording starts (a LiDAR that starts in a room sees the hall or the street beyond
+  // it later: docs/SLAM.md, "Session 33"). It reaches as far as its rings still lie within
+  // map.ring_gap_max of each other on a wall, so that what stands there is one HVoxel and not one
+  // per ring: a VLP-16's 2 deg rings 3 m apart at 78 m. Its far walls are what a match leans on
+  // where nothing stands near (the parking route's empty side road: docs/SLAM.md, "Session 36").
+  // At least the outdoor preset's 25 m (the paper's), at most 100 m (the common spinning LiDARs'
+  // specified reach: the farther, the larger the scan window and the tracer's work for the same
+  // points), within the scan window's 2048 cells.
+  constexpr double kSpecifiedReach = 100.0;
   const double place = p.map.max_range;  // the range the preset was chosen for
-  double reach = std::min(outdoor_preset().map.max_range, 2048.0 * p.map.cell_size);
+  const double floor_reach = outdoor_preset().map.max_range;
+  const double ring_reach = slope > 0.0 ? std::floor(p.map.ring_gap_max / slope) : 0.0;
+  double reach = std::min(std::clamp(ring_reach, floor_reach, kSpecifiedReach), 2048.0 * p.map.cell_size);
   while (std::ceil(reach / p.map.cell_size) > 2048.0) reach = std::nextafter(reach, 0.0);  // validate()'s rule, exactly
   if (is_spinning_lidar(sensor) && !max_range_named && p.map.max_range == preset_params.map.max_range &&
       p.map.max_range < reach) {
     p.map.max_range = reach;
-    chosen.push_back({"map.max_range", reach,
-                      format("a LiDAR (%d rings) reaches beyond the room its first scan was taken in", sensor.rings)});
+    const std::string rings =
+        format("a LiDAR (%d rings %.2f deg apart)", sensor.rings, sensor.ring_spacing * 180.0 / std::numbers::pi);
+    std::string why;
+    if (ring_reach > kSpecifiedReach) {
+      why = format("%s: its rings lie map.ring_gap_max = %.2g m apart on a wall only beyond the %.0f m the common "
+                   "spinning LiDARs reach", rings.c_str(), p.map.ring_gap_max, kSpecifiedReach);
+    } else if (ring_reach > floor_reach) {
+      why = format("%s: its rings lie map.ring_gap_max = %.2g m apart on a wall %.0f m away", rings.c_str(),
+                   p.map.ring_gap_max, ring_reach);
+    } else {
+      why = format("%s reaches beyond the room its first scan was taken in", rings.c_str());
+    }
+    if (reach < std::min(std::max(ring_reach, floor_reach), kSpecifiedReach)) why += " (the scan window's 2048 cells)";
+    chosen.push_back({"map.max_range", reach, why});
   }
   const bool gap_unset = !gap_named && p.map.ring_gap_slope == preset_params.map.ring_gap_slope &&
                          p.map.point_distance_threshold == preset_params.map.point_distance_threshold;
   if (is_spinning_lidar(sensor) && gap_unset) {
-    // Neighbouring rings hit a wall at a horizontal distance d about d · tan(spacing) apart in
-    // height (more by 1/cos² of the elevation: 7 % at a VLP-16's 15 deg; the rings that reach a
-    // far wall are the near-horizontal ones): the gap grows with each cell's distance, so that a
-    // far wall is one HVoxel while a near table stays apart from the floor under it. One gap for
-    // the whole range could not do both: a VLP-16's 0.87 m at 25 m merged a room's tables with
-    // its floor, the preset's 0.4 m split a hall's far walls ring by ring (docs/SLAM.md, "Session 34").
-    constexpr double kMargin = 1.1;
-    const double slope = std::round(kMargin * std::tan(sensor.ring_spacing) * 1e4) / 1e4;
+    // The rings' spread grows with each cell's distance, and so does its gap, so that a far wall
+    // is one HVoxel while a near table stays apart from the floor under it. One gap for the whole
+    // range could not do both: a VLP-16's 0.87 m at 25 m merged a room's tables with its floor,
+    // the preset's 0.4 m split a hall's far walls ring by ring (docs/SLAM.md, "Session 34").
     if (slope > 0.0) {
       p.map.ring_gap_slope = slope;
       const double base = p.map.point_distance_threshold;
       chosen.push_back({"map.ring_gap_slope", slope,
                         format("%d rings %.2f deg apart: the height gap is %.2f m near and %.2f m at %.0f m "
-                               "(1 m at most)",
+                               "(%.2g m at most)",
                                sensor.rings, sensor.ring_spacing * 180.0 / std::numbers::pi, base,
-                               std::max(base, std::min(slope * p.map.max_range, 1.0)), p.map.max_range)});
+                               std::max(base, std::min(slope * p.map.max_range, p.map.ring_gap_max)),
+                               p.map.max_range, p.map.ring_gap_max)});
     }
   } else if (!is_spinning_lidar(sensor) && sensor.rings > 0 && gap_unset) {
     // Rows that read as rings but not all around (the simulated Kinect's beyond 5 m: docs/SLAM.md,

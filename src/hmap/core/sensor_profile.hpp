@@ -53,13 +53,16 @@ struct ChosenDefault {
 /// but for map.max_range when `max_range_named`, and for the height gap (map.ring_gap_slope and
 /// map.point_distance_threshold) when `gap_named`: resolve_params_for_scan says so for a range, a
 /// preset or a gap the user named). Returns what it changed.
-/// - map.max_range = the outdoor preset's 25 m (at most 2048 cells) for a LiDAR (is_spinning_lidar) whose
-///   preset reaches less: the first scan tells the size of the place the recording starts in, not
-///   the sensor's reach, and a LiDAR that starts in a room sees the hall or street beyond it later.
+/// - map.max_range, for a LiDAR (is_spinning_lidar) whose preset reaches less: the LiDAR's own
+///   reach, where its rings lie map.ring_gap_max apart on a wall (ring_gap_max / (1.1 × tan(spacing)),
+///   whole metres: a VLP-16's 2° rings 78 m), at least the outdoor preset's 25 m, at most the 100 m
+///   the common spinning LiDARs reach and the scan window's 2048 cells. The first scan tells the size
+///   of the place the recording starts in, not the sensor's reach: a LiDAR that starts in a room sees
+///   the hall or street beyond it later, and where nothing stands near, its far walls hold the match.
 /// - map.ring_gap_slope = 1.1 × tan(ring spacing) for a LiDAR, when neither it nor
 ///   map.point_distance_threshold was set (`--set map.ring_gap_slope=0` keeps one gap): two neighbouring rings on a wall at a distance d are
 ///   d · tan(spacing) apart, so the height gap of each cell grows with its distance from the
-///   sensor (from the preset's 0.4 m, at most 1 m), and a far wall stays one HVoxel instead of one
+///   sensor (from the preset's 0.4 m, at most map.ring_gap_max), and a far wall stays one HVoxel instead of one
 ///   per ring (a VLP-16's 2° rings past 10.4 m) while a near table stays apart from the floor.
 /// - map.point_distance_threshold = ring spacing × map.max_range as it was before the first line
 ///   (clamped to [preset, 1 m]) for rows that read as rings but not all around (no LiDAR).

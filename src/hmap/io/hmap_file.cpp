@@ -43,7 +43,8 @@ bool is_later_parameter(const std::string& name) {
       "slam.loop_submap_scans", "slam.loop_min_travel", "slam.loop_search_radius", "slam.loop_max_descriptor_distance",
       "slam.loop_candidates", "slam.loop_search_translation", "slam.loop_search_rotation", "slam.loop_min_score",
       "slam.hvoxel_centroids", "slam.wall_refine", "slam.wall_min_height", "slam.wall_band_height", "slam.wall_iterations",
-      "slam.wall_min_pairs", "slam.wall_max_rotation", "slam.wall_tilt_drift", "map.ring_gap_slope"};
+      "slam.wall_min_pairs", "slam.wall_max_rotation", "slam.wall_tilt_drift", "map.ring_gap_slope",
+      "map.ring_gap_max"};
   for (const char* n : kLater) {
     if (name == n) return true;
   }

@@ -18,10 +18,6 @@ namespace hmap {
 namespace {
 constexpr std::ptrdiff_t kRankSortMax = 8;
 
-/// [m] The most map.ring_gap_slope widens the height gap to (the threshold itself may be more): a
-/// VLP-16's rings are 0.87 m apart at 25 m, and a wider gap would join a table to the floor.
-constexpr double kMaxRingGap = 1.0;
-
 /// Cells at or beyond this many in magnitude are never in a scan's window: build() keeps the
 /// window's centre within 10^9 cells and the constructor its half width within 2^20 + 1.
 constexpr double kFarCells = 1073741824.0;  // 2^30
@@ -39,9 +35,9 @@ ScanHVoxelizer::ScanHVoxelizer(const MapParams& params) : params_(params) {
   // The ring gap matters only where it passes the threshold within the window (the window's cells
   // lie within max_range + a cell's diagonal of the sensor): for an HDL-64's 0.4 deg rings it
   // never does within 25 m, and every cell keeps the threshold, as without a slope.
+  const double window_reach = params_.max_range + params_.cell_size * std::numbers::sqrt2;
   ring_gap_ = params_.ring_gap_slope > 0.0 &&
-              std::min(params_.ring_gap_slope * (params_.max_range + params_.cell_size * std::numbers::sqrt2), kMaxRingGap) >
-                  params_.point_distance_threshold;
+              std::min(params_.ring_gap_slope * window_reach, params_.ring_gap_max) > params_.point_distance_threshold;
   // validate() keeps max_range / cell_size <= 2048.
   window_.half = checked_count<std::int32_t>(params_.max_range / params_.cell_size, 1 << 20, "the scan window") + 1;
   window_.width = 2 * window_.half + 1;
@@ -192,13 +188,14 @@ float ScanHVoxelizer::cell_gap(const ScanHVoxels& out, std::size_t c) const {
   if (!ring_gap_) return static_cast<float>(params_.point_distance_threshold);
   // Two neighbouring rings of a spinning LiDAR hit a wall at a distance d about slope · d apart in
   // height: the gap that keeps the wall one HVoxel, taken at the cell's far corner (its centre's
-  // distance plus half its diagonal), never under the threshold, and at most kMaxRingGap.
+  // distance plus half its diagonal), never under the threshold, and at most map.ring_gap_max.
   const double cell = params_.cell_size;
   const CellKey& key = out.cells[c].key;
   const double dx = (key.i + 0.5) * cell - out.origin_map.x();
   const double dy = (key.j + 0.5) * cell - out.origin_map.y();
   const double far = std::sqrt(dx * dx + dy * dy) + cell * std::numbers::sqrt2 / 2.0;
-  return static_cast<float>(std::max(params_.point_distance_threshold, std::min(params_.ring_gap_slope * far, kMaxRingGap)));
+  return static_cast<float>(
+      std::max(params_.point_distance_threshold, std::min(params_.ring_gap_slope * far, params_.ring_gap_max)));
 }
 
 void ScanHVoxelizer::cluster_heights(ScanHVoxels& out) {

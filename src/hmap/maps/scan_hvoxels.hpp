@@ -117,7 +117,7 @@ class ScanHVoxelizer {
 
   /// The height gap that splits the cluster of `out`'s cell `c` (a scan this builder made):
   /// map.point_distance_threshold, grown with the cell's distance from the sensor by
-  /// map.ring_gap_slope (at most 1 m, or the threshold when that is more). The mapper merges the
+  /// map.ring_gap_slope (at most map.ring_gap_max, or the threshold when that is more). The mapper merges the
   /// cell's HVoxels into the map with the same gap (III-D).
   [[nodiscard]] float cell_gap(const ScanHVoxels& out, std::size_t c) const;
 
