@@ -131,16 +131,16 @@ TEST(ResolveParamsForScanTest, ALidarInARoomTakesTheRoomCellAndKeepsItsReach) {
   EXPECT_EQ(chosen.preset, "room");
   EXPECT_EQ(chosen.params.map.cell_size, 0.1);
   // The LiDAR's, not the room preset's 10 m: its 2° rings lie map.ring_gap_max (3 m) apart on a
-  // wall at 3 / slope, 3 / 0.0384 = 78.1 m (the spacing is read in 0.05° bins: 77-78 m).
+  // wall at 3 / slope, 3 / 0.0384 = 78.1 m (the spacing is read in 0.05° bins: 77-78 m), held to
+  // 512 cells of 0.1 m each way of the scan window, 51.2 m.
   const double slope = chosen.params.map.ring_gap_slope;
-  EXPECT_EQ(chosen.params.map.max_range, std::floor(3.0 / slope));
-  EXPECT_GE(chosen.params.map.max_range, 77.0);
-  EXPECT_LE(chosen.params.map.max_range, 78.0);
+  EXPECT_EQ(chosen.params.map.max_range, 51.2);
   ASSERT_FALSE(chosen.adapted.empty());
   EXPECT_EQ(chosen.adapted[0].name, "map.max_range");
   EXPECT_NE(chosen.adapted[0].reason.find(format("a LiDAR (16 rings 2.00 deg apart): its rings lie map.ring_gap_max "
-                                                 "= 3 m apart on a wall %.0f m away",
-                                                 chosen.params.map.max_range)),
+                                                 "= 3 m apart on a wall %.0f m away (held to 512 cells each way of "
+                                                 "the scan window)",
+                                                 std::floor(3.0 / slope))),
             std::string::npos)
       << chosen.adapted[0].reason;
   // 2° rings are 0.35 m apart at the room's 10 m: the preset's 0.4 m gap stays there, and grows

@@ -151,7 +151,7 @@ TEST(SensorDefaults, ALidarInAClosedRoomIsFoundByItsRingsNearBy) {
   Params p = room_preset();
   (void)adapt_to_sensor(p, room_preset(), s);
   EXPECT_GT(p.map.ring_gap_slope, 0.0);
-  EXPECT_DOUBLE_EQ(p.map.max_range, std::floor(3.0 / p.map.ring_gap_slope));  // its own reach, 77-78 m
+  EXPECT_DOUBLE_EQ(p.map.max_range, 51.2);  // its own reach, 77-78 m, held to 512 cells of 0.1 m
   // The same room seen through a 70 deg depth camera: no rings read near by, the indoor preset.
   sim::DepthCamera kinect(sim::DepthCameraParams::kinect_one());
   const SensorProfile k = profile_scan(kinect.scan(room, T, 0.0).points_sensor);
@@ -218,15 +218,14 @@ TEST(SensorDefaults, PresetFromTheSensorsReach) {
     EXPECT_EQ(preset_for_sensor(l, &why), "room");
     EXPECT_NE(why.find("beyond the indoor preset's 5 m range, inside the room preset's 10 m"), std::string::npos) << why;
     // A LiDAR reaches beyond the room: as far as its rings lie within 3 m of each other on a wall
-    // (100 m at most); the height gap is the preset's 0.4 m near, and grows with the rings' spread beyond.
+    // (100 m at most, and 512 cells of the scan window each way); the height gap is the preset's 0.4 m near, and grows with the rings' spread beyond.
     Params p = room_preset();
     const auto chosen = adapt_to_sensor(p, room_preset(), l);
     ASSERT_EQ(chosen.size(), 2U);
     EXPECT_EQ(chosen[0].name, "map.max_range");
     EXPECT_EQ(chosen[1].name, "map.ring_gap_slope");
     EXPECT_GT(p.map.ring_gap_slope, 0.0);
-    EXPECT_DOUBLE_EQ(p.map.max_range, std::min(100.0, std::floor(3.0 / p.map.ring_gap_slope)));
-    EXPECT_GE(p.map.max_range, 77.0);
+    EXPECT_DOUBLE_EQ(p.map.max_range, 51.2);  // 77-100 m, held to 512 cells of 0.1 m
     EXPECT_NE(chosen[0].reason.find("apart on a wall"), std::string::npos) << chosen[0].reason;
     EXPECT_DOUBLE_EQ(p.map.point_distance_threshold, 0.4);
     // Named by the user, the range stands, even at the preset's value.
@@ -248,8 +247,24 @@ TEST(SensorDefaults, PresetFromTheSensorsReach) {
     const auto held = adapt_to_sensor(fine, fine_preset, small);
     EXPECT_DOUBLE_EQ(fine.map.max_range, 20.48);
     ASSERT_FALSE(held.empty());
-    EXPECT_NE(held[0].reason.find("(the scan window's 2048 cells)"), std::string::npos) << held[0].reason;
+    EXPECT_NE(held[0].reason.find("(held to 2048 cells each way of the scan window)"), std::string::npos)
+        << held[0].reason;
     EXPECT_NO_THROW(validate(fine));
+  }
+  {
+    // With the room preset's 0.1 m cells a VLP-16's 78 m is held to 512 cells each way, 51.2 m;
+    // with 0.05 m cells 25.6 m (never under the 25 m a LiDAR had before).
+    Params room = room_preset();
+    const auto held = adapt_to_sensor(room, room_preset(), small);
+    EXPECT_DOUBLE_EQ(room.map.max_range, 51.2);
+    ASSERT_FALSE(held.empty());
+    EXPECT_NE(held[0].reason.find("(held to 512 cells each way of the scan window)"), std::string::npos)
+        << held[0].reason;
+    Params finer = room_preset();
+    finer.map.cell_size = 0.05;
+    Params finer_preset = finer;
+    (void)adapt_to_sensor(finer, finer_preset, small);
+    EXPECT_DOUBLE_EQ(finer.map.max_range, 25.6);
   }
   EXPECT_EQ(preset_for_sensor(profile_scan(PointCloud{}), &why), "outdoor");
   EXPECT_EQ(why, "the first scan has 0 points, too few to tell the sensor");

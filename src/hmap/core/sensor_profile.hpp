@@ -56,7 +56,8 @@ struct ChosenDefault {
 /// - map.max_range, for a LiDAR (is_spinning_lidar) whose preset reaches less: the LiDAR's own
 ///   reach, where its rings lie map.ring_gap_max apart on a wall (ring_gap_max / (1.1 × tan(spacing)),
 ///   whole metres: a VLP-16's 2° rings 78 m), at least the outdoor preset's 25 m, at most the 100 m
-///   the common spinning LiDARs reach and the scan window's 2048 cells. The first scan tells the size
+///   the common spinning LiDARs reach and 512 cells each way of the scan window (never under 25 m or
+///   2048 cells: validate()'s limit). The first scan tells the size
 ///   of the place the recording starts in, not the sensor's reach: a LiDAR that starts in a room sees
 ///   the hall or street beyond it later, and where nothing stands near, its far walls hold the match.
 /// - map.ring_gap_slope = 1.1 × tan(ring spacing) for a LiDAR, when neither it nor
