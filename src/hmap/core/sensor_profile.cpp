@@ -170,10 +170,10 @@ std::vector<ChosenDefault> adapt_to_sensor(Params& p, const Params& preset_param
         format("a LiDAR (%d rings %.2f deg apart)", sensor.rings, sensor.ring_spacing * 180.0 / std::numbers::pi);
     std::string why;
     if (ring_reach > kSpecifiedReach) {
-      why = format("%s: its rings lie map.ring_gap_max = %.2g m apart on a wall only beyond the %.0f m the common "
+      why = format("%s: its rings lie map.ring_gap_max = %g m apart on a wall only beyond the %.0f m the common "
                    "spinning LiDARs reach", rings.c_str(), p.map.ring_gap_max, kSpecifiedReach);
     } else if (ring_reach > floor_reach) {
-      why = format("%s: its rings lie map.ring_gap_max = %.2g m apart on a wall %.0f m away", rings.c_str(),
+      why = format("%s: its rings lie map.ring_gap_max = %g m apart on a wall %.0f m away", rings.c_str(),
                    p.map.ring_gap_max, ring_reach);
     } else {
       why = format("%s reaches beyond the room its first scan was taken in", rings.c_str());
@@ -195,7 +195,7 @@ std::vector<ChosenDefault> adapt_to_sensor(Params& p, const Params& preset_param
       const double base = p.map.point_distance_threshold;
       chosen.push_back({"map.ring_gap_slope", slope,
                         format("%d rings %.2f deg apart: the height gap is %.2f m near and %.2f m at %.0f m "
-                               "(%.2g m at most)",
+                               "(%g m at most)",
                                sensor.rings, sensor.ring_spacing * 180.0 / std::numbers::pi, base,
                                std::max(base, std::min(slope * p.map.max_range, p.map.ring_gap_max)),
                                p.map.max_range, p.map.ring_gap_max)});
