@@ -142,6 +142,8 @@ std::vector<ChosenDefault> adapt_to_sensor(Params& p, const Params& preset_param
   constexpr double kMargin = 1.1;
   const double slope =
       sensor.rings > 0 ? std::round(kMargin * std::tan(sensor.ring_spacing) * 1e4) / 1e4 : 0.0;
+  const std::string rings =
+      format("%d rings %.2f deg apart", sensor.rings, sensor.ring_spacing * 180.0 / std::numbers::pi);
   // A LiDAR's range is its own, not its first scan's: that scan tells how large the place is
   // where the recording starts (a LiDAR that starts in a room sees the hall or the street beyond
   // it later: docs/SLAM.md, "Session 33"). It reaches as far as its rings still lie within
@@ -161,24 +163,23 @@ std::vector<ChosenDefault> adapt_to_sensor(Params& p, const Params& preset_param
   const double floor_reach = outdoor_preset().map.max_range;
   const double ring_reach = slope > 0.0 ? std::floor(p.map.ring_gap_max / slope) : 0.0;
   const double window_reach = std::max(kWindowCells * cell, std::min(floor_reach, 2048.0 * cell));
-  double reach = std::min(std::clamp(ring_reach, floor_reach, kSpecifiedReach), window_reach);
+  const double wanted = std::clamp(ring_reach, floor_reach, kSpecifiedReach);
+  double reach = std::min(wanted, window_reach);
   while (std::ceil(reach / cell) > 2048.0) reach = std::nextafter(reach, 0.0);  // validate()'s rule, exactly
   if (is_spinning_lidar(sensor) && !max_range_named && p.map.max_range == preset_params.map.max_range &&
       p.map.max_range < reach) {
     p.map.max_range = reach;
-    const std::string rings =
-        format("a LiDAR (%d rings %.2f deg apart)", sensor.rings, sensor.ring_spacing * 180.0 / std::numbers::pi);
     std::string why;
     if (ring_reach > kSpecifiedReach) {
-      why = format("%s: its rings lie map.ring_gap_max = %g m apart on a wall only beyond the %.0f m the common "
-                   "spinning LiDARs reach", rings.c_str(), p.map.ring_gap_max, kSpecifiedReach);
+      why = format("a LiDAR (%s): its rings lie map.ring_gap_max = %g m apart on a wall only beyond the %.0f m the "
+                   "common spinning LiDARs reach", rings.c_str(), p.map.ring_gap_max, kSpecifiedReach);
     } else if (ring_reach > floor_reach) {
-      why = format("%s: its rings lie map.ring_gap_max = %g m apart on a wall %.0f m away", rings.c_str(),
+      why = format("a LiDAR (%s): its rings lie map.ring_gap_max = %g m apart on a wall %.0f m away", rings.c_str(),
                    p.map.ring_gap_max, ring_reach);
     } else {
-      why = format("%s reaches beyond the room its first scan was taken in", rings.c_str());
+      why = format("a LiDAR (%s) reaches beyond the room its first scan was taken in", rings.c_str());
     }
-    if (reach < std::min(std::max(ring_reach, floor_reach), kSpecifiedReach)) {
+    if (reach < wanted) {
       why += format(" (held to %.0f cells each way of the scan window)", std::ceil(reach / cell));
     }
     chosen.push_back({"map.max_range", reach, why});
@@ -194,9 +195,8 @@ std::vector<ChosenDefault> adapt_to_sensor(Params& p, const Params& preset_param
       p.map.ring_gap_slope = slope;
       const double base = p.map.point_distance_threshold;
       chosen.push_back({"map.ring_gap_slope", slope,
-                        format("%d rings %.2f deg apart: the height gap is %.2f m near and %.2f m at %.0f m "
-                               "(%g m at most)",
-                               sensor.rings, sensor.ring_spacing * 180.0 / std::numbers::pi, base,
+                        format("%s: the height gap is %.2f m near and %.2f m at %.0f m (%g m at most)",
+                               rings.c_str(), base,
                                std::max(base, std::min(slope * p.map.max_range, p.map.ring_gap_max)),
                                p.map.max_range, p.map.ring_gap_max)});
     }
@@ -205,9 +205,8 @@ std::vector<ChosenDefault> adapt_to_sensor(Params& p, const Params& preset_param
     // "Session 33"): one gap, at the range the preset was chosen for, as before session 34.
     const double gap = sensor.ring_spacing * place;
     const double value = std::clamp(gap, preset_params.map.point_distance_threshold, 1.0);
-    const std::string reason = format("%d rings %.2f deg apart: %.2f m between rings at the %.0f m range %s",
-                  sensor.rings, sensor.ring_spacing * 180.0 / std::numbers::pi, gap, place,
-                  place == p.map.max_range ? "limit" : "of the preset");
+    const std::string reason = format("%s: %.2f m between rings at the %.0f m range %s", rings.c_str(), gap, place,
+                                      place == p.map.max_range ? "limit" : "of the preset");
     const double rounded = std::round(value * 100.0) / 100.0;
     if (rounded != p.map.point_distance_threshold) {
       p.map.point_distance_threshold = rounded;
