@@ -154,22 +154,39 @@ ScanMatcher::Linearization ScanMatcher::linearize(const PlanarPose& pose, std::s
   constexpr std::size_t kChunk = 1024;
   const std::size_t visited = (candidates_.size() + stride - 1) / stride;
   const std::size_t chunks = (visited + kChunk - 1) / kChunk;
+  // First M_H and its gradient per HVoxel, in small blocks on the cores: reading the map (the F
+  // values of a candidate whose cells changed) is most of the work, and the sums' chunks of 1024
+  // left one core idle for a scan of 1300 HVoxels. Each sample depends on its candidate alone.
+  samples_.resize(visited);
+  const auto evaluate = [&](std::size_t from, std::size_t to) {
+    for (std::size_t n = from; n < to; ++n) {
+      Candidate& cand = candidates_[n * stride];
+      Projection projected = project(cand.v, c, co, pose, s);
+      shift_by_map_centroid(projected, read_centroids_, centroid_view_, s, cand);
+      const auto [u, w, fu, fw, base] = projected;
+      if (!(base == cand.base)) {
+        // The four F values depend only on the layer and the cells: cached until q leaves them.
+        cand.F = interpolator_.corner_values(view_, cand.layer, base);
+        cand.base = base;
+      }
+      samples_[n] = bilinear(cand.F, u - fu, w - fw, s);
+    }
+  };
+  constexpr std::size_t kEvaluateBlock = 128;
+  if (visited > kEvaluateBlock) {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, visited, kEvaluateBlock),
+                      [&](const auto& range) { evaluate(range.begin(), range.end()); });
+  } else {
+    evaluate(0, visited);
+  }
   std::vector<Sums> chunk_sums(chunks);
   const auto sum_chunk = [&](std::size_t chunk) {
   Sums& sums = chunk_sums[chunk];
   auto& [h00, h01, h02, h11, h12, h22, g0, g1, g2, cost, score] = sums;
-  const std::size_t end = std::min(candidates_.size(), (chunk + 1) * kChunk * stride);
-  for (std::size_t k = chunk * kChunk * stride; k < end; k += stride) {
-    Candidate& cand = candidates_[k];
-    Projection projected = project(cand.v, c, co, pose, s);
-    shift_by_map_centroid(projected, read_centroids_, centroid_view_, s, cand);
-    const auto [u, w, fu, fw, base] = projected;
-    if (!(base == cand.base)) {
-      // The four F values depend only on the layer and the cells: cached until q leaves them.
-      cand.F = interpolator_.corner_values(view_, cand.layer, base);
-      cand.base = base;
-    }
-    const MetricSample m = bilinear(cand.F, u - fu, w - fw, s);
+  const std::size_t end = std::min(visited, (chunk + 1) * kChunk);
+  for (std::size_t n = chunk * kChunk; n < end; ++n) {
+    const Candidate& cand = candidates_[n * stride];
+    const MetricSample& m = samples_[n];
     const float r = 1.0F - m.value;
     // ∂S/∂φ = (−sin φ v_x − cos φ v_y, cos φ v_x − sin φ v_y).
     const float dx_dyaw = -c * cand.v.x() - co * cand.v.y();

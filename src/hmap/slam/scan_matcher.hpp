@@ -215,6 +215,7 @@ class ScanMatcher {
   LayerInterpolator interpolator_;
   LocalMapView view_;
   std::vector<Candidate> candidates_;
+  std::vector<MetricSample> samples_;  // linearize's M_H and gradient per visited candidate
   double rms_radius_ = 1.0;
   double reference_score_ = 0.0;  // running mean of the scores of the last matches
   double reference_cost_ = 0.0;   // running mean of the final costs per HVoxel of the last matches
