@@ -160,6 +160,55 @@ TEST(ScanHVoxelsTest, CentroidsAgreeWithABruteForceTwin) {
   }
 }
 
+// build() with work alongside the centroids' sums: the same HVoxels, centroids and wall lean as
+// without, and the work sees the HVoxels as they end (a copy taken inside it matches); without
+// centroids kept the work still runs, once.
+TEST(ScanHVoxelsTest, WorkAlongsideSeesTheFinalHVoxelsAndChangesNothing) {
+  MapParams p = unit_params();
+  p.cell_size = 0.25;
+  p.point_distance_threshold = 0.3;
+  std::mt19937 rng(4711);
+  std::uniform_real_distribution<float> xy(-7.0F, 7.0F);
+  std::uniform_real_distribution<float> z(-1.0F, 2.0F);
+  PointCloud pts;
+  for (int k = 0; k < 30000; ++k) pts.emplace_back(xy(rng), xy(rng), k % 3 == 0 ? -1.0F : z(rng));
+  Pose T = Pose::Identity();
+  T.linear() = Eigen::AngleAxisd(0.02, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  for (const bool centroids : {true, false}) {
+    ScanHVoxelizer plain(p);
+    ScanHVoxelizer with_work(p);
+    plain.keep_centroids(centroids);
+    plain.keep_wall_lean(centroids);
+    with_work.keep_centroids(centroids);
+    with_work.keep_wall_lean(centroids);
+    ScanHVoxels a;
+    ScanHVoxels b;
+    plain.build(pts, T, a);
+    std::vector<HVoxel> seen;
+    int calls = 0;
+    with_work.build(pts, T, b, [&](const ScanHVoxels& r) {
+      seen = r.hvoxels;
+      ++calls;
+    });
+    EXPECT_EQ(calls, 1);
+    ASSERT_EQ(a.hvoxels.size(), b.hvoxels.size());
+    ASSERT_GT(a.hvoxels.size(), 500U);
+    ASSERT_EQ(seen.size(), b.hvoxels.size());
+    for (std::size_t k = 0; k < a.hvoxels.size(); ++k) {
+      EXPECT_EQ(a.hvoxels[k].z_min, b.hvoxels[k].z_min);
+      EXPECT_EQ(a.hvoxels[k].z_max, b.hvoxels[k].z_max);
+      EXPECT_EQ(a.hvoxels[k].count, b.hvoxels[k].count);
+      EXPECT_EQ(seen[k].z_min, b.hvoxels[k].z_min);
+      EXPECT_EQ(seen[k].count, b.hvoxels[k].count);
+    }
+    ASSERT_EQ(a.centroids.size(), centroids ? a.hvoxels.size() : 0U);
+    ASSERT_EQ(b.centroids.size(), a.centroids.size());
+    for (std::size_t k = 0; k < a.centroids.size(); ++k) EXPECT_EQ(a.centroids[k], b.centroids[k]);
+    EXPECT_EQ(a.wall_lean.walls, b.wall_lean.walls);
+    EXPECT_EQ(a.wall_lean.weighted, b.wall_lean.weighted);
+  }
+}
+
 /// Vertical walls sampled as a spinning lidar's rings would (heights −1 to 2 m every 0.2 m,
 /// 2 cm apart along the wall, 1 cm of noise across it, fixed seed), seen from a sensor tilted by
 /// `tilt` (sensor → level): what the binning frame holds when its z is not gravity's.

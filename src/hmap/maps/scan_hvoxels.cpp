@@ -4,6 +4,7 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 
 #include <algorithm>
 #include <array>
@@ -49,13 +50,24 @@ ScanHVoxelizer::ScanHVoxelizer(const MapParams& params) : params_(params) {
 
 void ScanHVoxelizer::build(std::span<const Point3f> points_sensor, const Pose& T_map_sensor,
                            ScanHVoxels& out) {
+  build(points_sensor, T_map_sensor, out, {});
+}
+
+void ScanHVoxelizer::build(std::span<const Point3f> points_sensor, const Pose& T_map_sensor, ScanHVoxels& out,
+                           const std::function<void(const ScanHVoxels&)>& alongside) {
   // Before anything changes: a non-finite pose would make every cell key undefined.
   if (!T_map_sensor.matrix().allFinite()) throw Error("scan pose is not finite");
   index_points(points_sensor, T_map_sensor, out);
   cluster_heights(out);
   out.centroids.clear();
   out.wall_lean = WallLean{};
-  if (keep_centroids_) sum_centroids(out);
+  if (keep_centroids_ && alongside) {
+    // The sums are one pass over the points, on one core: the caller's work fills the other.
+    tbb::parallel_invoke([&] { sum_centroids(out); }, [&] { alongside(out); });
+  } else {
+    if (keep_centroids_) sum_centroids(out);
+    if (alongside) alongside(out);
+  }
 }
 
 void ScanHVoxelizer::index_points(std::span<const Point3f> points_sensor, const Pose& T_map_sensor,

@@ -3,6 +3,7 @@
 // clustering and HVoxel generation), in the map frame.
 
 #include <array>
+#include <functional>
 #include <span>
 #include <vector>
 
@@ -103,6 +104,10 @@ class ScanHVoxelizer {
   /// Alg. 1 + Alg. 2: transforms points_sensor by T_map_sensor, bins them by cell, clusters each
   /// cell's heights with the point-distance threshold and makes one HVoxel per cluster (eq. 1).
   void build(std::span<const Point3f> points_sensor, const Pose& T_map_sensor, ScanHVoxels& out);
+  /// build(), with `alongside(out)` run on another core while the centroids are summed: it may
+  /// read out's cells and HVoxels (final by then), not its centroids or wall lean.
+  void build(std::span<const Point3f> points_sensor, const Pose& T_map_sensor, ScanHVoxels& out,
+             const std::function<void(const ScanHVoxels&)>& alongside);
 
   /// Whether build() also fills ScanHVoxels::centroids (off by default: the mapper has no use for
   /// them). On, it keeps each point's plan position while binning and sums them per HVoxel after

@@ -270,10 +270,11 @@ SlamStep HmapSlam::process(const ScanInput& input) {
         scans_ == 0 ? Eigen::Vector3d::UnitZ()
                     : Eigen::Vector3d(compose(heading, Attitude{}).linear().transpose() * floor_up_);
     for (int pass = 0; pass < 2; ++pass) {
-      level_hvoxelizer_.build(points_sensor, compose(PlanarPose{}, attitude), scan_level_);
+      std::optional<Eigen::Vector3d> n_level;
+      level_hvoxelizer_.build(points_sensor, compose(PlanarPose{}, attitude), scan_level_,
+                              [&](const ScanHVoxels& level) { n_level = floor_normal(level, params_); });
       level_at = attitude;
       built = true;
-      const auto n_level = floor_normal(scan_level_, params_);
       if (!n_level) break;
       const Eigen::Vector3d n_sensor = level_rotation(attitude).transpose() * *n_level;
       floor_sensor = n_sensor;
