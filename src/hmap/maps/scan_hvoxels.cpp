@@ -171,6 +171,10 @@ void ScanHVoxelizer::index_points(std::span<const Point3f> points_sensor, const 
   std::size_t kept = 0;
   std::size_t non_finite = 0;
   std::size_t out_of_range = 0;
+  // The points per cell, counted here for cluster_heights' counting sort: cell_offset_[c + 1]
+  // for cell c (a pass over the points fewer; the pointer is taken again when a cell is added).
+  cell_offset_.assign(1, 0);
+  std::uint32_t* count_of_slot = cell_offset_.data();
   for (std::size_t k = 0; k < n; ++k) {
     const std::uint32_t w = window_in[k];
     if (w >= kOutOfRange) {
@@ -182,7 +186,10 @@ void ScanHVoxelizer::index_points(std::span<const Point3f> points_sensor, const 
       out.cells.push_back({window_.key_of(w), 0, 0});
       slot = static_cast<std::uint32_t>(out.cells.size());
       used_windows_.push_back(w);
+      cell_offset_.push_back(0);
+      count_of_slot = cell_offset_.data();
     }
+    ++count_of_slot[slot];
     cell_out[kept] = slot - 1;
     z_of_point[kept] = z_of_point[k];
     if (keep_xy) xy_of_point[kept] = xy_of_point[k];
@@ -212,9 +219,8 @@ float ScanHVoxelizer::cell_gap(const ScanHVoxels& out, std::size_t c) const {
 
 void ScanHVoxelizer::cluster_heights(ScanHVoxels& out) {
   // Counting sort of the kept heights by cell: each cell's heights become one contiguous slice.
+  // index_points counted the points per cell into cell_offset_[c + 1].
   const std::size_t n_cells = out.cells.size();
-  cell_offset_.assign(n_cells + 1, 0);
-  for (std::uint32_t c : point_cell_) ++cell_offset_[c + 1];
   for (std::size_t c = 0; c < n_cells; ++c) cell_offset_[c + 1] += cell_offset_[c];
   sorted_z_.resize(point_z_.size());
   // cell_offset_[c] is used as the write cursor of cell c, then restored.

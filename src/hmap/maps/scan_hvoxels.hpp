@@ -146,7 +146,7 @@ class ScanHVoxelizer {
   bool keep_wall_lean_ = false;
   bool ring_gap_ = false;  // map.ring_gap_slope widens the gap of some cell of the window
   std::vector<std::array<double, 9>> moments_;  // per HVoxel with keep_wall_lean_: Σx Σy Σz Σxx Σxy Σyy Σxz Σyz Σzz
-  std::vector<std::uint32_t> cell_offset_;     // counting sort of heights by cell
+  std::vector<std::uint32_t> cell_offset_;     // counting sort of heights by cell (index_points counts)
   std::vector<float> sorted_z_;
   std::vector<std::uint32_t> cluster_count_;   // prefix sums of the clusters per cell
   // eq. (1)'s density of an HVoxel of n points no taller than min_hvoxel_height (V = h_min·A):
