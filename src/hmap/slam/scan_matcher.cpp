@@ -502,7 +502,9 @@ MatchResult ScanMatcher::match(const ScanHVoxels& scan_level, const HMap& map, c
   prior_.reset();
   yaw_only_ = false;
   read_centroids_ = map_centroids_;
-  select(scan_level, static_cast<float>(params_.slam.min_match_height));
+  // slam.hvoxel_centroids 0 is eq. (6) as the paper has it, at the cells' centres, though the scan
+  // may carry centroids for another reader (the walls' lean, slam.wall_tilt_drift).
+  select(scan_level, static_cast<float>(params_.slam.min_match_height), params_.slam.hvoxel_centroids == 0);
   if (candidates_.size() < kMinHVoxels && thin_fallback != ThinFallback::kNone && params_.slam.min_match_height > 0.0) {
     // At the cells' centres, scan and map alike: the map keeps centroids for the tall HVoxels
     // only, and ground rings at their points' centroids against cells at their centres ran away
