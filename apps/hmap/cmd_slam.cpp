@@ -276,6 +276,7 @@ void run_slam(const SlamOptions& o) {
   std::size_t wide = 0;             // lost after the search: every heading searched too
   std::size_t skipped = 0;
   std::size_t heading_only = 0;
+  std::size_t wall_levelled = 0;  // scans whose tilt the walls' lean corrected (slam.wall_tilt_drift)
   std::size_t walls_applied = 0;
   double wall_yaw_moved = 0.0;  // |yaw change| summed over the refined scans [rad]
   std::size_t iterations = 0;
@@ -339,6 +340,7 @@ void run_slam(const SlamOptions& o) {
       relocalise_ms = ms_since(t0);
     }
     deskewed += step.deskewed ? 1 : 0;
+    wall_levelled += step.wall_tilt_walls > 0 ? 1 : 0;
     timed += point_times.empty() ? 0 : 1;
     const double ms = ms_since(t0);
     ms_total += ms;
@@ -470,7 +472,10 @@ void run_slam(const SlamOptions& o) {
       truth ? " (truth in white, estimate in magenta)" : "",
       attitude ? "given (the poses of the input or --attitude-from)"
                : imu ? "estimated from the scans with the IMU's gravity as prior"
-                     : "estimated from the scans (floor normal + map surfaces)",
+                     : params.slam.wall_tilt_drift > 0.0
+                         ? format("estimated from the scans (floor normal + map surfaces; the walls' lean held it to gravity on %zu of %zu scans, slam.wall_tilt_drift)",
+                                  wall_levelled, n).c_str()
+                         : "estimated from the scans (floor normal + map surfaces)",
       first_tilt.c_str(),
       chosen_text.empty() ? "" : " Chosen from the first scan:", chosen_text.c_str(),
       imu ? (" IMU: " + std::to_string(imu_samples->size()) + " samples from " + imu_from + ".").c_str() : "", deskewed, n);

@@ -41,7 +41,9 @@ def test_slam_poses_equal_the_cli_poses(tmp_path):
         assert s["hvoxels_used"] > 100 and 0.0 < s["score"] <= 1.0
         assert s["observable"]["x"] and s["observable"]["yaw"]
         assert s["mapping"]["points_in"] > 100000
-        assert s["wall_tilt"] == (0.0, 0)  # slam.wall_tilt_drift is off by default
+        # slam.wall_tilt_drift is on by default: KITTI's street walls (over a hundred per scan) turn
+        # the tilt by under a quarter of a degree.
+        assert 0.0 <= s["wall_tilt"][0] < 0.004 and s["wall_tilt"][1] >= 100
     # The map is SLAM's, live, and saves the bytes `hmap slam` writes.
     slam.map.save(tmp_path / "py.hmap")
     assert (tmp_path / "py.hmap").read_bytes() == (out / "map.hmap").read_bytes()

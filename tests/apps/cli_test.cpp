@@ -499,12 +499,13 @@ TEST_F(CliTest, SlamWallRefinementSummaryAndColumns) {
   EXPECT_NE(bad.out.find("slam.wall_band_height"), std::string::npos) << bad.out;
 }
 
-// slam --set slam.wall_tilt_drift: matches.csv says per scan how far the walls' lean turned the
-// tilt and over how many walls; off (the default) both columns are 0 on every row.
+// slam.wall_tilt_drift (on by default): matches.csv says per scan how far the walls' lean turned
+// the tilt and over how many walls, the summary on how many scans; off (0) both columns are 0 on
+// every row.
 TEST_F(CliTest, SlamWallTiltColumns) {
   const CmdResult sim = run("simulate --scene office --sensor os0-64 --frames 6 --stride 3 --out " + path("seq"));
   ASSERT_EQ(sim.code, 0) << sim.out;
-  const CmdResult on = run("slam --kitti " + path("seq") + " --set slam.wall_tilt_drift=0.0005 --no-loop-closure --out " + path("on"));
+  const CmdResult on = run("slam --kitti " + path("seq") + " --no-loop-closure --out " + path("on"));
   ASSERT_EQ(on.code, 0) << on.out;
   const std::vector<std::string> tilt = csv_column(dir_ / "on" / "matches.csv", "wall_tilt");
   const std::vector<std::string> walls = csv_column(dir_ / "on" / "matches.csv", "wall_tilt_walls");
@@ -515,10 +516,12 @@ TEST_F(CliTest, SlamWallTiltColumns) {
     const double t = std::stod(tilt[k]);
     EXPECT_TRUE(t >= 0.0 && t < 0.05) << k << ": " << tilt[k];
   }
-  const CmdResult off = run("slam --kitti " + path("seq") + " --no-loop-closure --out " + path("off"));
+  EXPECT_NE(on.out.find("the walls' lean held it to gravity on 6 of 6 scans"), std::string::npos) << on.out;
+  const CmdResult off = run("slam --kitti " + path("seq") + " --set slam.wall_tilt_drift=0 --no-loop-closure --out " + path("off"));
   ASSERT_EQ(off.code, 0) << off.out;
   for (const std::string& v : csv_column(dir_ / "off" / "matches.csv", "wall_tilt")) EXPECT_EQ(std::stod(v), 0.0);
   for (const std::string& v : csv_column(dir_ / "off" / "matches.csv", "wall_tilt_walls")) EXPECT_EQ(v, "0");
+  EXPECT_NE(off.out.find("estimated from the scans (floor normal + map surfaces)."), std::string::npos) << off.out;
 }
 
 TEST_F(CliTest, SlamAndPvoxReadRgbdFrames) {
@@ -552,9 +555,10 @@ TEST_F(CliTest, SlamOnDepthFramesFromTheScansAloneWithTheFolderAsTruth) {
   const std::string rgbd = (test::data_dir() / "rgbd_7scenes").string();
   const CmdResult s = run("slam --rgbd " + rgbd + " --scans 6 --attitude-from scans --gt source --out " + path("s"));
   ASSERT_EQ(s.code, 0) << s.out;
-  EXPECT_NE(s.out.find("estimated from the scans (floor normal + map surfaces). First frame levelled by its floor"),
+  EXPECT_NE(s.out.find("estimated from the scans (floor normal + map surfaces; the walls' lean held it to gravity on "),
             std::string::npos)
       << s.out;
+  EXPECT_NE(s.out.find("First frame levelled by its floor"), std::string::npos) << s.out;
   const PoseList truth = read_poses((dir_ / "s" / "truth.txt").string());
   const PoseList est = read_poses((dir_ / "s" / "poses.txt").string());
   ASSERT_EQ(truth.size(), 6U);
@@ -881,7 +885,7 @@ TEST_F(CliTest, MapContinuedFromItsFileEqualsOneRun) {
 // hmap slam --continue (issue 22): a second session localised in the first one's saved map.
 // A LiDAR mounted upside down (the town's VLP-16 scans with y and z negated: 180° about x). Taken
 // as upright, its map is upside down (the first pose's up is the sensor's +z); with --sensor-up -z
-// each pose is the upright run's, mirrored back, within 3 cm and 0.5°. A bad axis, or the flag
+// each pose is the upright run's, mirrored back, within 6 cm and 0.5°. A bad axis, or the flag
 // with the attitude given, is one line and exit 2.
 TEST_F(CliTest, SlamOnALidarMountedUpsideDown) {
   ASSERT_EQ(run("simulate --scene city --sensor vlp16 --frames 6 --stride 3 --out " + path("up")).code, 0);
@@ -914,14 +918,16 @@ TEST_F(CliTest, SlamOnALidarMountedUpsideDown) {
   EXPECT_LT(b.front()(2, 2), -0.99);  // the sensor's -z is up
   Pose flip = Pose::Identity();
   flip.linear() = Eigen::Vector3d(1.0, -1.0, -1.0).asDiagonal();  // the upright sensor's frame in the flipped one's
-  // Each run follows the truth's motion from its first pose within 3 cm (2-2.5 cm at the end with
-  // the VLP-16's 78 m range), and the two agree within twice that and 0.5 deg.
+  // Each run follows the truth's motion from its first pose within 4.5 cm (3.1-4.0 cm: the walls'
+  // lean levels the first scans to within about 0.1° of each other, and the first match lands
+  // 3.3 cm off along the street; 2-2.5 cm with the floors alone, slam.wall_tilt_drift=0), and the
+  // two agree within 6 cm and 0.5 deg.
   const PoseList truth = read_poses(dir_ / "up" / "poses.txt");
   ASSERT_EQ(truth.size(), 6U);
   for (std::size_t k = 0; k < 6; ++k) {
     const Pose want = truth[0].inverse() * truth[k];
-    EXPECT_LT((want.inverse() * (a[0].inverse() * a[k])).translation().norm(), 0.03) << k;
-    EXPECT_LT((want.inverse() * ((b[0] * flip).inverse() * (b[k] * flip))).translation().norm(), 0.03) << k;
+    EXPECT_LT((want.inverse() * (a[0].inverse() * a[k])).translation().norm(), 0.045) << k;
+    EXPECT_LT((want.inverse() * ((b[0] * flip).inverse() * (b[k] * flip))).translation().norm(), 0.045) << k;
     const Pose d = a[k].inverse() * (b[k] * flip);
     EXPECT_LT(d.translation().norm(), 0.06) << k;
     EXPECT_LT(Eigen::AngleAxisd(d.linear()).angle(), 0.5 * std::numbers::pi / 180.0) << k;

@@ -489,7 +489,7 @@ TEST_F(HMapFileTest, EverySingleByteFlipIsRejected) {
   map.column_for_update({40, -1}).push_back({-1.0F, -0.5F, 2.0F, 0.25F});
   save_hmap(dir_ / "small.hmap", map);
   const std::string good = read_bytes(dir_ / "small.hmap");
-  ASSERT_LT(good.size(), 2700U);  // the parameters are in the header: ~7800 loads, each byte flipped three ways
+  ASSERT_LT(good.size(), 2800U);  // the parameters are in the header: ~8100 loads, each byte flipped three ways
   for (std::size_t at = 0; at < good.size(); ++at) {
     for (const unsigned char mask : std::array<unsigned char, 3>{0x01, 0x80, 0xFF}) {
       std::string bad = good;

@@ -117,11 +117,12 @@ struct SlamParams {
   double wall_min_pairs = 30;              ///< [-] fewer scan cells paired with a map line: the pose is kept
   double wall_max_rotation = 0.02;         ///< [rad] a refinement turning farther than this (~1.1°) is not taken
   // z, roll and pitch from the scans (slam/attitude.hpp), when no attitude is given.
-  double wall_tilt_drift = 0.0;            ///< [rad] per scan: how far the tilt taken from the floors may
-                                           ///< wander from one scan to the next; > 0: the walls' lean (built
-                                           ///< plumb within about 0.2 %) corrects it by a Kalman gain.
-                                           ///< 0 (default) = off, the floors alone: on the simulated suite it
-                                           ///< is not better everywhere yet (docs/SLAM.md, "Session 31")
+  double wall_tilt_drift = 0.0002;         ///< [rad] per scan: how far the tilt taken from the floors may
+                                           ///< wander from one scan to the next (0.01°); the walls' lean (built
+                                           ///< plumb within about 0.2 %) corrects it by a Kalman gain. Without
+                                           ///< it a tilt the map fit picks up stays, and z climbs along it
+                                           ///< (the 0.3 km towns 1.2-2.9 m; docs/SLAM.md, "Session 37").
+                                           ///< 0 = off, the floors alone
   double surface_max_height = 0.3;         ///< [m] HVoxels at most this tall (scan and map) count as horizontal
                                            ///< surfaces for the attitude fit
   double attitude_gate = 0.5;              ///< [m] farthest a scan surface may be from the map's to be paired,
