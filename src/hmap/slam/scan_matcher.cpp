@@ -146,8 +146,8 @@ ScanMatcher::Linearization ScanMatcher::linearize(const PlanarPose& pose, std::s
   const auto c = static_cast<float>(std::sin(pose.yaw));
   const auto co = static_cast<float>(std::cos(pose.yaw));
   const auto robust = static_cast<float>(params_.slam.robust_scale);
-  // The HVoxels are summed in fixed chunks, the chunks in parallel, then the chunk sums in order:
-  // the result does not depend on the number of threads or on scheduling.
+  // The HVoxels are summed in fixed chunks of 1024, then the chunk sums in order (the order the
+  // chunks were once summed in parallel in: the same sums bit for bit).
   struct Sums {
     double h00 = 0, h01 = 0, h02 = 0, h11 = 0, h12 = 0, h22 = 0, g0 = 0, g1 = 0, g2 = 0, cost = 0, score = 0;
   };
@@ -215,13 +215,8 @@ ScanMatcher::Linearization ScanMatcher::linearize(const PlanarPose& pose, std::s
     score += m.value;
   }
   };
-  if (chunks > 1) {
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunks, 1), [&](const auto& range) {
-      for (std::size_t chunk = range.begin(); chunk != range.end(); ++chunk) sum_chunk(chunk);
-    });
-  } else if (chunks == 1) {
-    sum_chunk(0);
-  }
+  // The map was read above: the sums are a few multiplications per HVoxel, one core's work.
+  for (std::size_t chunk = 0; chunk < chunks; ++chunk) sum_chunk(chunk);
   Sums t;
   for (const Sums& part : chunk_sums) {
     t.h00 += part.h00; t.h01 += part.h01; t.h02 += part.h02; t.h11 += part.h11; t.h12 += part.h12; t.h22 += part.h22;
